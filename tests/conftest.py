@@ -1,0 +1,25 @@
+"""Shared fixtures: the ../shared folder and a seeded random generator."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+SHARED_DIR = REPO_ROOT.parent / "shared"
+
+
+@pytest.fixture(scope="session")
+def shared_dir() -> Path:
+    """Path of ``../shared`` beside the checkout (CI has it there)."""
+    if not SHARED_DIR.is_dir():
+        pytest.fail(f"../shared not found beside the checkout at {SHARED_DIR}")
+    return SHARED_DIR
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    """A seeded generator, so every test is repeatable."""
+    return np.random.default_rng(20261123)

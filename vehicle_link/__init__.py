@@ -1,0 +1,1 @@
+"""shadowsurvey: vehicle_link."""
