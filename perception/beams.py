@@ -13,7 +13,7 @@ from __future__ import annotations
 import csv
 import io
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 
 import numpy as np
@@ -62,7 +62,7 @@ class BeamTable:
         return float(self.right_rad[-1] - self.left_rad[0])
 
 
-@lru_cache(maxsize=None)
+@cache
 def load_beam_table(name: str) -> BeamTable:
     """Load a shipped beam table by name (one of :data:`TABLES`).
 

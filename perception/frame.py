@@ -52,7 +52,7 @@ def _readonly(array: np.ndarray) -> np.ndarray:
 
 
 def _check_axis(values: Any, key: str, *, dtype: type = np.float64) -> np.ndarray:
-    array = np.asarray(values, dtype=dtype)
+    array: np.ndarray = np.asarray(values, dtype=dtype)
     if array.ndim != 1:
         raise FrameFormatError(f"must be 1-D, got shape {array.shape}", key=key)
     if array.size < 2:

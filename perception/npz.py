@@ -146,13 +146,13 @@ def frame_to_arrays(frame: SonarFrame) -> dict[str, np.ndarray]:
         "image": np.asarray(frame.image),
         "range_m": np.asarray(frame.range_m, dtype=np.float64),
         "beam_azimuth_deg": np.rad2deg(frame.beam_azimuth_rad),
-        "elevation_aperture_deg": np.float64(math.degrees(frame.elevation_aperture_rad)),
-        "timestamp_s": np.float64(frame.timestamp_s),
+        "elevation_aperture_deg": np.asarray(math.degrees(frame.elevation_aperture_rad)),
+        "timestamp_s": np.asarray(frame.timestamp_s, dtype=np.float64),
     }
     for key, (name, factor) in OPTIONAL_KEYS.items():
         value = getattr(frame, name)
         if not math.isnan(value):
-            arrays[key] = np.float64(value / factor)
+            arrays[key] = np.asarray(value / factor, dtype=np.float64)
     return arrays
 
 
@@ -169,7 +169,13 @@ def frames_to_arrays(frames: Sequence[SonarFrame]) -> dict[str, np.ndarray]:
                 key="image",
                 frame_index=i,
             )
-    shared = all(f.same_geometry(first, rtol=0) for f in frames)
+    # Axes are shared when every frame has the same ranges and azimuths (the aperture is a
+    # per-frame scalar anyway, so it does not decide this).
+    shared = all(
+        np.array_equal(f.range_m, first.range_m)
+        and np.array_equal(f.beam_azimuth_rad, first.beam_azimuth_rad)
+        for f in frames
+    )
     arrays: dict[str, np.ndarray] = {
         "image": np.stack([f.image for f in frames]),
         "elevation_aperture_deg": np.array([math.degrees(f.elevation_aperture_rad) for f in frames]),

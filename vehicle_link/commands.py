@@ -1,0 +1,312 @@
+"""Pure builders of the MAVLink messages vehicle_link sends (no I/O here).
+
+A command is first a :class:`CommandSpec` (MAV_CMD number and seven parameters), then a
+COMMAND_LONG message for a given target; the client sends it and waits for COMMAND_ACK.
+Position targets are fire-and-forget messages (ArduSub does not acknowledge them).
+
+Sign and unit conventions: see :mod:`vehicle_link.units`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from vehicle_link import units
+from vehicle_link.dialect import mavlink2
+from vehicle_link.modes import SubMode
+
+# POSITION_TARGET_TYPEMASK bits (a set bit means "ignore this field").
+TYPE_MASK_X_IGNORE = 1
+TYPE_MASK_Y_IGNORE = 2
+TYPE_MASK_Z_IGNORE = 4
+TYPE_MASK_VX_IGNORE = 8
+TYPE_MASK_VY_IGNORE = 16
+TYPE_MASK_VZ_IGNORE = 32
+TYPE_MASK_AX_IGNORE = 64
+TYPE_MASK_AY_IGNORE = 128
+TYPE_MASK_AZ_IGNORE = 256
+TYPE_MASK_FORCE_SET = 512
+TYPE_MASK_YAW_IGNORE = 1024
+TYPE_MASK_YAW_RATE_IGNORE = 2048
+
+_VEL_IGNORE = TYPE_MASK_VX_IGNORE | TYPE_MASK_VY_IGNORE | TYPE_MASK_VZ_IGNORE
+_ACC_IGNORE = TYPE_MASK_AX_IGNORE | TYPE_MASK_AY_IGNORE | TYPE_MASK_AZ_IGNORE
+_YAW_IGNORE = TYPE_MASK_YAW_IGNORE | TYPE_MASK_YAW_RATE_IGNORE
+
+#: Only z (depth) is used: ArduSub's ALT_HOLD reads ``alt`` and nothing else.
+TYPE_MASK_DEPTH_ONLY = (
+    TYPE_MASK_X_IGNORE | TYPE_MASK_Y_IGNORE | _VEL_IGNORE | _ACC_IGNORE | _YAW_IGNORE
+)
+#: Position only (x, y, z), yaw free.
+TYPE_MASK_POSITION = _VEL_IGNORE | _ACC_IGNORE | _YAW_IGNORE
+#: Position and yaw.
+TYPE_MASK_POSITION_YAW = _VEL_IGNORE | _ACC_IGNORE | TYPE_MASK_YAW_RATE_IGNORE
+#: Position and velocity (ArduSub needs the velocity for terrain-frame targets).
+TYPE_MASK_POSITION_VELOCITY = _ACC_IGNORE | _YAW_IGNORE
+
+ARM_FORCE_MAGIC = 21196  # param2 of COMPONENT_ARM_DISARM that bypasses the arming checks
+MAV_COMP_ID_ONBOARD_COMPUTER = 191
+MAV_COMP_ID_AUTOPILOT1 = 1
+
+
+@dataclass(frozen=True)
+class CommandSpec:
+    """A MAV_CMD and its seven parameters, as sent in COMMAND_LONG."""
+
+    command: int
+    params: tuple[float, float, float, float, float, float, float]
+
+    @property
+    def name(self) -> str:
+        """The MAV_CMD name (or ``MAV_CMD(n)``)."""
+        entry = mavlink2.enums["MAV_CMD"].get(self.command)
+        return entry.name if entry is not None else f"MAV_CMD({self.command})"
+
+
+def _spec(command: int, *params: float) -> CommandSpec:
+    padded = tuple(float(p) for p in params) + (0.0,) * (7 - len(params))
+    return CommandSpec(command, padded)  # type: ignore[arg-type]
+
+
+def arm_disarm(arm: bool, *, force: bool = False) -> CommandSpec:
+    """MAV_CMD_COMPONENT_ARM_DISARM; ``force`` bypasses checks (21196) - use with care."""
+    return _spec(
+        mavlink2.MAV_CMD_COMPONENT_ARM_DISARM,
+        1.0 if arm else 0.0,
+        float(ARM_FORCE_MAGIC) if force else 0.0,
+    )
+
+
+def set_mode(mode: SubMode | int) -> CommandSpec:
+    """MAV_CMD_DO_SET_MODE with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED and ArduSub's mode number."""
+    return _spec(
+        mavlink2.MAV_CMD_DO_SET_MODE,
+        float(mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED),
+        float(int(mode)),
+    )
+
+
+def message_interval(message_id: int, interval_s: float | None) -> CommandSpec:
+    """MAV_CMD_SET_MESSAGE_INTERVAL.
+
+    Parameters
+    ----------
+    message_id : int
+        MAVLink message id.
+    interval_s : float or None
+        Period in seconds (> 0); ``None`` restores the default rate; ``0`` or negative
+        stops the stream (sent as -1).
+    """
+    if interval_s is None:
+        interval_us = 0.0
+    elif interval_s <= 0.0:
+        interval_us = -1.0
+    else:
+        interval_us = float(units.s_to_us(interval_s))
+    return _spec(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, float(message_id), interval_us)
+
+
+def mount_control(tilt_rad: float, *, centidegrees: bool = False) -> CommandSpec:
+    """MAV_CMD_DO_MOUNT_CONTROL, MAVLink targeting mode.
+
+    param1 = pitch (up positive = -tilt), param2 = roll, param3 = yaw, param7 = mode.
+    ArduSub 4.3+ reads the angles in degrees; older firmware (4.1) passed them through
+    an int32 centidegree path, so ``centidegrees=True`` sends pitch * 100 for it.
+    """
+    pitch_deg = units.mount_pitch_deg_from_tilt_rad(tilt_rad)
+    pitch = float(round(pitch_deg * 100.0)) if centidegrees else pitch_deg
+    return _spec(
+        mavlink2.MAV_CMD_DO_MOUNT_CONTROL,
+        pitch,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        float(mavlink2.MAV_MOUNT_MODE_MAVLINK_TARGETING),
+    )
+
+
+def gimbal_manager_pitchyaw(tilt_rad: float, *, gimbal_device_id: int = 0) -> CommandSpec:
+    """MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW: pitch (deg, = -tilt), yaw 0 in body frame, rates NaN."""
+    return _spec(
+        mavlink2.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW,
+        units.mount_pitch_deg_from_tilt_rad(tilt_rad),
+        0.0,
+        math.nan,
+        math.nan,
+        0.0,
+        0.0,
+        float(gimbal_device_id),
+    )
+
+
+def mission_start() -> CommandSpec:
+    """MAV_CMD_MISSION_START from the first item (ArduSub refuses other first/last items)."""
+    return _spec(mavlink2.MAV_CMD_MISSION_START, 0.0, 0.0)
+
+
+def set_mission_current(seq: int) -> CommandSpec:
+    """MAV_CMD_DO_SET_MISSION_CURRENT (param1 = item number)."""
+    if seq < 0:
+        raise ValueError(f"mission item number must be >= 0, got {seq}")
+    return _spec(mavlink2.MAV_CMD_DO_SET_MISSION_CURRENT, float(seq))
+
+
+def command_long(
+    spec: CommandSpec, target_system: int, target_component: int, confirmation: int = 0
+) -> mavlink2.MAVLink_command_long_message:
+    """COMMAND_LONG for ``spec``; ``confirmation`` counts retransmissions (0 the first time)."""
+    return mavlink2.MAVLink_command_long_message(
+        target_system, target_component, spec.command, min(confirmation, 255), *spec.params
+    )
+
+
+def heartbeat_onboard_computer() -> mavlink2.MAVLink_heartbeat_message:
+    """Our heartbeat: MAV_TYPE_ONBOARD_CONTROLLER, no autopilot, state ACTIVE."""
+    return mavlink2.MAVLink_heartbeat_message(
+        mavlink2.MAV_TYPE_ONBOARD_CONTROLLER,
+        mavlink2.MAV_AUTOPILOT_INVALID,
+        0,
+        0,
+        mavlink2.MAV_STATE_ACTIVE,
+        3,
+    )
+
+
+def depth_target_global_int(
+    depth_m: float, target_system: int, target_component: int, time_boot_ms: int
+) -> mavlink2.MAVLink_set_position_target_global_int_message:
+    """Depth target for ALT_HOLD: SET_POSITION_TARGET_GLOBAL_INT with only z used.
+
+    ArduSub (4.0+) in ALT_HOLD sets its depth target to ``alt`` (metres above the origin,
+    so ``-depth_m``) and ignores the frame and every other field.
+    """
+    return mavlink2.MAVLink_set_position_target_global_int_message(
+        time_boot_ms & 0xFFFFFFFF,
+        target_system,
+        target_component,
+        mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        TYPE_MASK_DEPTH_ONLY,
+        0,
+        0,
+        units.depth_m_to_alt_m(depth_m),
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+    )
+
+
+def position_target_local_ned(
+    north_m: float,
+    east_m: float,
+    depth_m: float,
+    target_system: int,
+    target_component: int,
+    time_boot_ms: int,
+    *,
+    yaw_rad: float | None = None,
+) -> mavlink2.MAVLink_set_position_target_local_ned_message:
+    """GUIDED position target about the EKF origin: SET_POSITION_TARGET_LOCAL_NED.
+
+    ``z`` is down positive, equal to depth because ArduSub's origin is at the surface.
+    """
+    mask = TYPE_MASK_POSITION if yaw_rad is None else TYPE_MASK_POSITION_YAW
+    return mavlink2.MAVLink_set_position_target_local_ned_message(
+        time_boot_ms & 0xFFFFFFFF,
+        target_system,
+        target_component,
+        mavlink2.MAV_FRAME_LOCAL_NED,
+        mask,
+        north_m,
+        east_m,
+        depth_m,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0 if yaw_rad is None else yaw_rad,
+        0.0,
+    )
+
+
+def terrain_altitude_target_global_int(
+    latitude_deg: float,
+    longitude_deg: float,
+    altitude_m: float,
+    target_system: int,
+    target_component: int,
+    time_boot_ms: int,
+) -> mavlink2.MAVLink_set_position_target_global_int_message:
+    """GUIDED altitude-above-seabed target in MAV_FRAME_GLOBAL_TERRAIN_ALT_INT.
+
+    ArduSub after 4.5 reads ``alt`` as the rangefinder target in this frame and needs the
+    velocity fields (zero here: hold the position); ArduSub 4.5 ignores the message.
+    """
+    return mavlink2.MAVLink_set_position_target_global_int_message(
+        time_boot_ms & 0xFFFFFFFF,
+        target_system,
+        target_component,
+        mavlink2.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
+        TYPE_MASK_POSITION_VELOCITY,
+        units.deg_to_dege7(latitude_deg),
+        units.deg_to_dege7(longitude_deg),
+        altitude_m,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+    )
+
+
+def distance_sensor(
+    range_m: float,
+    min_range_m: float,
+    max_range_m: float,
+    time_boot_ms: int,
+    *,
+    sensor_id: int = 0,
+    signal_quality_pct: int | None = None,
+) -> mavlink2.MAVLink_distance_sensor_message:
+    """Our altimeter as DISTANCE_SENSOR pointing down (ArduSub: RNGFND1_TYPE = 10, MAVLink).
+
+    Ranges in metres, sent in whole centimetres; a reading outside [min, max] is clamped to
+    max + 1 cm, which ArduPilot treats as "out of range high".
+    """
+    if not (0.0 <= min_range_m < max_range_m):
+        raise ValueError(
+            f"altimeter limits must satisfy 0 <= min < max, got {min_range_m}, {max_range_m}"
+        )
+    if not math.isfinite(range_m):
+        raise ValueError(f"altimeter range must be finite, got {range_m}")
+    current_cm = int(round(units.m_to_cm(range_m)))
+    max_cm = int(round(units.m_to_cm(max_range_m)))
+    if range_m > max_range_m or range_m < 0.0:
+        current_cm = max_cm + 1
+    quality = 0 if signal_quality_pct is None else max(1, min(100, int(signal_quality_pct)))
+    return mavlink2.MAVLink_distance_sensor_message(
+        time_boot_ms & 0xFFFFFFFF,
+        int(round(units.m_to_cm(min_range_m))),
+        max_cm,
+        min(current_cm, 65535),
+        mavlink2.MAV_DISTANCE_SENSOR_ULTRASOUND,
+        sensor_id,
+        mavlink2.MAV_SENSOR_ROTATION_PITCH_270,
+        255,
+        0.0,
+        0.0,
+        (0.0, 0.0, 0.0, 0.0),
+        quality,
+    )

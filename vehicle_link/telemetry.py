@@ -1,0 +1,429 @@
+"""Typed, timestamped telemetry records decoded from MAVLink messages.
+
+``decode(msg, time_s)`` is pure: it reads the fields of a pymavlink message (any object
+with ``get_type()`` and the MAVLink field names) and returns a frozen record in SI units,
+stamped with ``time_s`` (the injected clock's time at reception), or ``None`` for a message
+type that is not telemetry. All unit conversions come from :mod:`vehicle_link.units`.
+Frames and signs follow architecture.md: NED, depth down positive, tilt down positive.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from vehicle_link import units
+from vehicle_link.modes import mode_name
+
+MAV_MODE_FLAG_SAFETY_ARMED = 128
+MAV_TYPE_SUBMARINE = 12
+MAV_SENSOR_ROTATION_PITCH_270 = 25  # pointing down
+_UINT16_MAX = 65535
+_INT16_MAX = 32767
+
+
+@dataclass(frozen=True)
+class Heartbeat:
+    """HEARTBEAT of the vehicle: mode and armed state."""
+
+    time_s: float
+    system_id: int
+    component_id: int
+    mav_type: int
+    autopilot: int
+    base_mode: int
+    custom_mode: int
+    system_status: int
+    armed: bool
+    mode_name: str
+
+
+@dataclass(frozen=True)
+class Attitude:
+    """ATTITUDE: body attitude relative to NED, radians; rates rad/s."""
+
+    time_s: float
+    time_boot_s: float
+    roll_rad: float
+    pitch_rad: float
+    yaw_rad: float
+    roll_rate_rad_s: float
+    pitch_rate_rad_s: float
+    yaw_rate_rad_s: float
+
+
+@dataclass(frozen=True)
+class GlobalPosition:
+    """GLOBAL_POSITION_INT: WGS84 position, depth below the surface, NED velocity.
+
+    ``heading_rad`` is None when the vehicle reports it as unknown (UINT16_MAX).
+    """
+
+    time_s: float
+    time_boot_s: float
+    latitude_deg: float
+    longitude_deg: float
+    altitude_msl_m: float
+    depth_m: float
+    velocity_north_m_s: float
+    velocity_east_m_s: float
+    velocity_down_m_s: float
+    heading_rad: float | None
+
+
+@dataclass(frozen=True)
+class LocalPositionNed:
+    """LOCAL_POSITION_NED: position about the EKF origin (at the surface for ArduSub)."""
+
+    time_s: float
+    time_boot_s: float
+    north_m: float
+    east_m: float
+    down_m: float
+    velocity_north_m_s: float
+    velocity_east_m_s: float
+    velocity_down_m_s: float
+
+
+@dataclass(frozen=True)
+class Pressure:
+    """SCALED_PRESSURE (instance 1) or SCALED_PRESSURE2 (instance 2; ArduSub's external
+    depth sensor, e.g. a Bar30, is usually here)."""
+
+    time_s: float
+    time_boot_s: float
+    instance: int
+    press_abs_pa: float
+    press_diff_pa: float
+    temperature_degc: float
+
+
+@dataclass(frozen=True)
+class Rangefinder:
+    """DISTANCE_SENSOR or ArduPilot's RANGEFINDER: a measured distance.
+
+    ``orientation`` is a MAV_SENSOR_ORIENTATION (25 = pointing down); RANGEFINDER carries
+    none and is ArduPilot's primary (downward) rangefinder, so it is reported as 25.
+    ``signal_quality_pct`` is None when unknown. ``in_range`` is False when the reading
+    lies outside the sensor's declared limits.
+    """
+
+    time_s: float
+    source: str
+    sensor_id: int
+    distance_m: float
+    min_distance_m: float
+    max_distance_m: float
+    orientation: int
+    signal_quality_pct: int | None
+    in_range: bool
+
+    @property
+    def is_downward(self) -> bool:
+        """True for a sensor pointing down (an altimeter)."""
+        return self.orientation == MAV_SENSOR_ROTATION_PITCH_270
+
+
+@dataclass(frozen=True)
+class MountStatus:
+    """Mount attitude from GIMBAL_DEVICE_ATTITUDE_STATUS (4.3+) or MOUNT_STATUS (older).
+
+    ``tilt_rad`` is the sonar tilt, positive down (= -pitch).
+    """
+
+    time_s: float
+    source: str
+    roll_rad: float
+    pitch_rad: float
+    yaw_rad: float
+    tilt_rad: float
+
+
+@dataclass(frozen=True)
+class MissionCurrent:
+    """MISSION_CURRENT: the active mission item."""
+
+    time_s: float
+    seq: int
+    total: int
+    mission_state: int
+    mission_mode: int
+
+
+@dataclass(frozen=True)
+class MissionItemReached:
+    """MISSION_ITEM_REACHED."""
+
+    time_s: float
+    seq: int
+
+
+@dataclass(frozen=True)
+class StatusText:
+    """STATUSTEXT: a text message with its MAV_SEVERITY (0 emergency .. 7 debug)."""
+
+    time_s: float
+    severity: int
+    text: str
+    text_id: int
+    chunk_seq: int
+
+
+@dataclass(frozen=True)
+class SysStatus:
+    """SYS_STATUS: battery and sensor health. None marks values the vehicle reports as unknown."""
+
+    time_s: float
+    voltage_battery_v: float | None
+    current_battery_a: float | None
+    battery_remaining_pct: int | None
+    sensors_present: int
+    sensors_enabled: int
+    sensors_health: int
+    load_pct: float
+    drop_rate_comm_pct: float
+
+
+TelemetryRecord = (
+    Heartbeat
+    | Attitude
+    | GlobalPosition
+    | LocalPositionNed
+    | Pressure
+    | Rangefinder
+    | MountStatus
+    | MissionCurrent
+    | MissionItemReached
+    | StatusText
+    | SysStatus
+)
+
+
+def _text(value: Any) -> str:
+    if isinstance(value, bytes | bytearray):
+        return bytes(value).split(b"\x00", 1)[0].decode("utf-8", errors="replace")
+    return str(value).split("\x00", 1)[0]
+
+
+def _heartbeat(msg: Any, time_s: float) -> Heartbeat:
+    return Heartbeat(
+        time_s=time_s,
+        system_id=int(msg.get_srcSystem()),
+        component_id=int(msg.get_srcComponent()),
+        mav_type=int(msg.type),
+        autopilot=int(msg.autopilot),
+        base_mode=int(msg.base_mode),
+        custom_mode=int(msg.custom_mode),
+        system_status=int(msg.system_status),
+        armed=bool(msg.base_mode & MAV_MODE_FLAG_SAFETY_ARMED),
+        mode_name=mode_name(int(msg.custom_mode)),
+    )
+
+
+def _attitude(msg: Any, time_s: float) -> Attitude:
+    return Attitude(
+        time_s=time_s,
+        time_boot_s=units.ms_to_s(msg.time_boot_ms),
+        roll_rad=float(msg.roll),
+        pitch_rad=float(msg.pitch),
+        yaw_rad=float(msg.yaw),
+        roll_rate_rad_s=float(msg.rollspeed),
+        pitch_rate_rad_s=float(msg.pitchspeed),
+        yaw_rate_rad_s=float(msg.yawspeed),
+    )
+
+
+def _global_position(msg: Any, time_s: float) -> GlobalPosition:
+    heading = None if msg.hdg == _UINT16_MAX else units.cdeg_to_rad(msg.hdg)
+    return GlobalPosition(
+        time_s=time_s,
+        time_boot_s=units.ms_to_s(msg.time_boot_ms),
+        latitude_deg=units.dege7_to_deg(msg.lat),
+        longitude_deg=units.dege7_to_deg(msg.lon),
+        altitude_msl_m=units.mm_to_m(msg.alt),
+        depth_m=units.depth_m_from_relative_alt_mm(msg.relative_alt),
+        velocity_north_m_s=units.cm_s_to_m_s(msg.vx),
+        velocity_east_m_s=units.cm_s_to_m_s(msg.vy),
+        velocity_down_m_s=units.cm_s_to_m_s(msg.vz),
+        heading_rad=heading,
+    )
+
+
+def _local_position(msg: Any, time_s: float) -> LocalPositionNed:
+    return LocalPositionNed(
+        time_s=time_s,
+        time_boot_s=units.ms_to_s(msg.time_boot_ms),
+        north_m=float(msg.x),
+        east_m=float(msg.y),
+        down_m=float(msg.z),
+        velocity_north_m_s=float(msg.vx),
+        velocity_east_m_s=float(msg.vy),
+        velocity_down_m_s=float(msg.vz),
+    )
+
+
+def _pressure(instance: int) -> Callable[[Any, float], Pressure]:
+    def build(msg: Any, time_s: float) -> Pressure:
+        return Pressure(
+            time_s=time_s,
+            time_boot_s=units.ms_to_s(msg.time_boot_ms),
+            instance=instance,
+            press_abs_pa=units.hpa_to_pa(msg.press_abs),
+            press_diff_pa=units.hpa_to_pa(msg.press_diff),
+            temperature_degc=units.cdegc_to_degc(msg.temperature),
+        )
+
+    return build
+
+
+def _distance_sensor(msg: Any, time_s: float) -> Rangefinder:
+    distance_m = units.cm_to_m(msg.current_distance)
+    min_m = units.cm_to_m(msg.min_distance)
+    max_m = units.cm_to_m(msg.max_distance)
+    quality = int(getattr(msg, "signal_quality", 0))
+    return Rangefinder(
+        time_s=time_s,
+        source="DISTANCE_SENSOR",
+        sensor_id=int(msg.id),
+        distance_m=distance_m,
+        min_distance_m=min_m,
+        max_distance_m=max_m,
+        orientation=int(msg.orientation),
+        signal_quality_pct=None if quality == 0 else quality,
+        in_range=min_m <= distance_m <= max_m,
+    )
+
+
+def _rangefinder(msg: Any, time_s: float) -> Rangefinder:
+    distance_m = float(msg.distance)
+    return Rangefinder(
+        time_s=time_s,
+        source="RANGEFINDER",
+        sensor_id=0,
+        distance_m=distance_m,
+        min_distance_m=0.0,
+        max_distance_m=math.inf,
+        orientation=MAV_SENSOR_ROTATION_PITCH_270,
+        signal_quality_pct=None,
+        in_range=math.isfinite(distance_m) and distance_m >= 0.0,
+    )
+
+
+def _gimbal_status(msg: Any, time_s: float) -> MountStatus | None:
+    q = tuple(float(v) for v in msg.q)
+    if not all(math.isfinite(v) for v in q) or not any(q):
+        return None  # attitude unknown (NaN or zero quaternion)
+    roll, pitch, yaw = units.quaternion_wxyz_to_euler_rad((q[0], q[1], q[2], q[3]))
+    return MountStatus(
+        time_s=time_s,
+        source="GIMBAL_DEVICE_ATTITUDE_STATUS",
+        roll_rad=roll,
+        pitch_rad=pitch,
+        yaw_rad=yaw,
+        tilt_rad=units.tilt_rad_from_mount_pitch_rad(pitch),
+    )
+
+
+def _mount_status(msg: Any, time_s: float) -> MountStatus:
+    # ArduPilot fills pointing_a = pitch, pointing_b = roll, pointing_c = yaw, centidegrees.
+    pitch = units.cdeg_to_rad(msg.pointing_a)
+    return MountStatus(
+        time_s=time_s,
+        source="MOUNT_STATUS",
+        roll_rad=units.cdeg_to_rad(msg.pointing_b),
+        pitch_rad=pitch,
+        yaw_rad=units.cdeg_to_rad(msg.pointing_c),
+        tilt_rad=units.tilt_rad_from_mount_pitch_rad(pitch),
+    )
+
+
+def _mission_current(msg: Any, time_s: float) -> MissionCurrent:
+    return MissionCurrent(
+        time_s=time_s,
+        seq=int(msg.seq),
+        total=int(getattr(msg, "total", 0)),
+        mission_state=int(getattr(msg, "mission_state", 0)),
+        mission_mode=int(getattr(msg, "mission_mode", 0)),
+    )
+
+
+def _mission_item_reached(msg: Any, time_s: float) -> MissionItemReached:
+    return MissionItemReached(time_s=time_s, seq=int(msg.seq))
+
+
+def _statustext(msg: Any, time_s: float) -> StatusText:
+    return StatusText(
+        time_s=time_s,
+        severity=int(msg.severity),
+        text=_text(msg.text),
+        text_id=int(getattr(msg, "id", 0)),
+        chunk_seq=int(getattr(msg, "chunk_seq", 0)),
+    )
+
+
+def _sys_status(msg: Any, time_s: float) -> SysStatus:
+    return SysStatus(
+        time_s=time_s,
+        voltage_battery_v=None
+        if msg.voltage_battery == _UINT16_MAX
+        else units.mv_to_v(msg.voltage_battery),
+        current_battery_a=None if msg.current_battery == -1 else units.ca_to_a(msg.current_battery),
+        battery_remaining_pct=None if msg.battery_remaining == -1 else int(msg.battery_remaining),
+        sensors_present=int(msg.onboard_control_sensors_present),
+        sensors_enabled=int(msg.onboard_control_sensors_enabled),
+        sensors_health=int(msg.onboard_control_sensors_health),
+        load_pct=msg.load / 10.0,
+        drop_rate_comm_pct=msg.drop_rate_comm / 100.0,
+    )
+
+
+_DECODERS: dict[str, Callable[[Any, float], TelemetryRecord | None]] = {
+    "HEARTBEAT": _heartbeat,
+    "ATTITUDE": _attitude,
+    "GLOBAL_POSITION_INT": _global_position,
+    "LOCAL_POSITION_NED": _local_position,
+    "SCALED_PRESSURE": _pressure(1),
+    "SCALED_PRESSURE2": _pressure(2),
+    "DISTANCE_SENSOR": _distance_sensor,
+    "RANGEFINDER": _rangefinder,
+    "GIMBAL_DEVICE_ATTITUDE_STATUS": _gimbal_status,
+    "MOUNT_STATUS": _mount_status,
+    "MISSION_CURRENT": _mission_current,
+    "MISSION_ITEM_REACHED": _mission_item_reached,
+    "STATUSTEXT": _statustext,
+    "SYS_STATUS": _sys_status,
+}
+
+TELEMETRY_MESSAGE_TYPES: tuple[str, ...] = tuple(_DECODERS)
+
+
+def decode(msg: Any, time_s: float) -> TelemetryRecord | None:
+    """Decode one MAVLink message into a telemetry record, or None if it is not telemetry
+    (or carries no usable value, like a gimbal status with a NaN quaternion).
+
+    Parameters
+    ----------
+    msg : pymavlink message
+        Any object with ``get_type()`` and the MAVLink fields of its type.
+    time_s : float
+        Reception time on the injected clock, seconds.
+    """
+    decoder = _DECODERS.get(msg.get_type())
+    if decoder is None:
+        return None
+    return decoder(msg, time_s)
+
+
+def store_key(record: TelemetryRecord) -> str:
+    """Key under which the latest record of its kind is stored.
+
+    Pressure is keyed per instance (``"Pressure1"``, ``"Pressure2"``), rangefinders per
+    source and id (``"Rangefinder:DISTANCE_SENSOR:0"``), every other record by class name.
+    """
+    if isinstance(record, Pressure):
+        return f"Pressure{record.instance}"
+    if isinstance(record, Rangefinder):
+        return f"Rangefinder:{record.source}:{record.sensor_id}"
+    return type(record).__name__
