@@ -49,3 +49,45 @@ class GeometryError(ValueError):
 
 class SolverError(ValueError):
     """The height solver cannot produce an estimate from the given measurements."""
+
+
+class MeasurementError(ValueError):
+    """A sensor measurement is invalid (NaN, negative pressure, non-positive noise...).
+
+    Attributes
+    ----------
+    sensor : str or None
+        The sensor it came from (``"pressure"``, ``"depth"``, ``"altimeter"``, ``"sonar"``).
+    value : float or None
+        The offending value, when there is one.
+    """
+
+    def __init__(self, message: str, *, sensor: str | None = None, value: object = None):
+        super().__init__(f"{sensor}: {message}" if sensor else message)
+        self.sensor = sensor
+        self.value = value
+
+
+class OutsideWindowError(ValueError):
+    """A query time lies outside the altitude filter's retained window.
+
+    Attributes
+    ----------
+    time_s : float
+        The time asked for.
+    window_start_s, window_end_s : float
+        The times the filter can answer for (NaN when it holds no data yet).
+    """
+
+    def __init__(self, time_s: float, window_start_s: float, window_end_s: float):
+        super().__init__(
+            f"time {time_s!r} s is outside the filtered window "
+            f"[{window_start_s!r}, {window_end_s!r}] s"
+        )
+        self.time_s = time_s
+        self.window_start_s = window_start_s
+        self.window_end_s = window_end_s
+
+
+class SeabedNotFoundError(ValueError):
+    """No start of the insonified seabed can be found in a sonar frame."""

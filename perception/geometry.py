@@ -56,7 +56,7 @@ def slant_to_ground(slant_m: ArrayLike, altitude_m: float) -> FloatArray:
     """
     h = _check_altitude(altitude_m)
     r = np.asarray(slant_m, dtype=np.float64)
-    sq = r * r - h * h
+    sq = (r - h) * (r + h)  # fewer rounding errors than r*r - h*h near the nadir
     with np.errstate(invalid="ignore"):
         return np.where(sq >= 0, np.sqrt(np.maximum(sq, 0.0)), np.nan)
 
@@ -91,9 +91,7 @@ def slant_for_depression(depression_rad: ArrayLike, altitude_m: float) -> FloatA
         return np.where(d > 0, h / np.sin(np.clip(d, 1e-300, math.pi / 2)), np.inf)
 
 
-def altitude_from_band_start(
-    near_slant_m: float, *, depression_rad: float, elevation_aperture_rad: float
-) -> float:
+def altitude_from_band_start(near_slant_m: float, *, depression_rad: float, elevation_aperture_rad: float) -> float:
     """Sonar altitude from where the insonified seabed starts in range (flat seabed).
 
     The steepest ray of the vertical aperture has depression
@@ -240,3 +238,158 @@ def seabed_hit_slant_m(
     down = ray_direction_sonar(azimuth_rad, elevation_rad) @ rot[2]
     with np.errstate(divide="ignore"):
         return np.where(down > 0, h / np.where(down > 0, down, 1.0), np.inf)
+
+
+def ray_angles_sonar(direction_sonar: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Azimuth and elevation of directions given in the sonar frame (inverse of
+    :func:`ray_direction_sonar`).
+
+    Parameters
+    ----------
+    direction_sonar : array_like, shape (..., 3)
+        Directions in the sonar frame (x boresight, y starboard, z down); need not be
+        unit length but must not be zero.
+
+    Returns
+    -------
+    azimuth_rad, elevation_rad : ndarray, shape (...)
+        Azimuth (positive to starboard) and elevation (positive down), rad.
+
+    Raises
+    ------
+    GeometryError
+        For a zero-length or non-finite direction, or a last axis that is not 3 long.
+    """
+    d = np.asarray(direction_sonar, dtype=np.float64)
+    if d.shape[-1:] != (3,):
+        raise GeometryError(f"directions must have a last axis of length 3, got shape {d.shape}")
+    norm = np.linalg.norm(d, axis=-1)
+    if not np.all(np.isfinite(norm) & (norm > 0)):
+        raise GeometryError("directions must be finite and non-zero")
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    return np.arctan2(y, x), np.arctan2(z, np.hypot(x, y))
+
+
+def ray_depression_of_angles_rad(
+    azimuth_rad: ArrayLike,
+    elevation_rad: ArrayLike,
+    *,
+    tilt_rad: float,
+    pitch_rad: float = 0.0,
+    roll_rad: float = 0.0,
+) -> FloatArray:
+    """Depression below the local horizontal of sonar rays, rad (negative: upward).
+
+    Parameters
+    ----------
+    azimuth_rad, elevation_rad : array_like
+        Ray angles in the sonar frame (module docstring), broadcast together.
+    tilt_rad, pitch_rad, roll_rad : float
+        Mount depression, vehicle pitch (nose up) and roll (starboard down), rad.
+
+    Returns
+    -------
+    ndarray
+        ``arcsin`` of the ray's down component in NED; for a flat seabed ``altitude``
+        below, the ray meets it at ``altitude / sin(depression)``
+        (:func:`seabed_hit_slant_m`).
+    """
+    rot = sonar_to_ned(tilt_rad=tilt_rad, pitch_rad=pitch_rad, roll_rad=roll_rad)
+    down = ray_direction_sonar(azimuth_rad, elevation_rad) @ rot[2]
+    return np.arcsin(np.clip(down, -1.0, 1.0))
+
+
+@dataclass(frozen=True)
+class SeabedPlane:
+    """A planar (possibly sloped) seabed in local NED.
+
+    Attributes
+    ----------
+    normal_ned : tuple of 3 float
+        Unit normal pointing from the seabed into the water (its down component is
+        negative). Normalised on construction.
+    point_ned_m : tuple of 3 float or None
+        A point on the plane, m, when the plane's position is known; None when only its
+        orientation is (then only differences of distance to it can be formed).
+
+    Raises
+    ------
+    GeometryError
+        For a zero, non-finite or horizontal-pointing normal (a seabed steeper than or
+        equal to 90 deg), or a non-finite point.
+    """
+
+    normal_ned: tuple[float, float, float]
+    point_ned_m: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        n = np.asarray(self.normal_ned, dtype=np.float64)
+        if n.shape != (3,) or not np.all(np.isfinite(n)) or not np.linalg.norm(n) > 0:
+            raise GeometryError(f"seabed normal must be a finite non-zero 3-vector, got {n!r}")
+        n = n / np.linalg.norm(n)
+        if not n[2] < 0:
+            raise GeometryError(f"seabed normal must point up into the water (negative down component), got {n!r}")
+        object.__setattr__(self, "normal_ned", (float(n[0]), float(n[1]), float(n[2])))
+        if self.point_ned_m is not None:
+            q = np.asarray(self.point_ned_m, dtype=np.float64)
+            if q.shape != (3,) or not np.all(np.isfinite(q)):
+                raise GeometryError(f"seabed point must be a finite 3-vector, got {q!r}")
+            object.__setattr__(self, "point_ned_m", (float(q[0]), float(q[1]), float(q[2])))
+
+    @classmethod
+    def horizontal(cls, depth_m: float) -> SeabedPlane:
+        """A flat seabed at ``depth_m`` (NED down)."""
+        return cls((0.0, 0.0, -1.0), (0.0, 0.0, float(depth_m)))
+
+    @classmethod
+    def fit(cls, points_ned_m: ArrayLike) -> SeabedPlane:
+        """Least-squares plane (orthogonal distances) through seabed points.
+
+        Parameters
+        ----------
+        points_ned_m : array_like, shape (K, 3)
+            Seabed points in local NED, m (e.g. the sonar's own seabed returns), K >= 3
+            and not all on one line.
+
+        Raises
+        ------
+        GeometryError
+            For fewer than 3 points, non-finite points or collinear points.
+        """
+        p = np.asarray(points_ned_m, dtype=np.float64)
+        if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 3:
+            raise GeometryError(f"plane fit needs points of shape (K >= 3, 3), got {p.shape}")
+        if not np.all(np.isfinite(p)):
+            raise GeometryError("plane fit needs finite points")
+        centre = p.mean(axis=0)
+        _, s, vt = np.linalg.svd(p - centre)
+        if s[1] <= 1e-12 * max(s[0], 1e-300):
+            raise GeometryError("plane fit points are collinear (or coincide)")
+        n = vt[2] if vt[2][2] < 0 else -vt[2]
+        return cls(
+            (float(n[0]), float(n[1]), float(n[2])),
+            (float(centre[0]), float(centre[1]), float(centre[2])),
+        )
+
+    @property
+    def slope_rad(self) -> float:
+        """Angle between the seabed and the horizontal, rad."""
+        return float(math.acos(min(1.0, -self.normal_ned[2])))
+
+    def height_above_m(self, points_ned_m: ArrayLike) -> FloatArray:
+        """Perpendicular distance of points above the plane, m (negative below it).
+
+        Parameters
+        ----------
+        points_ned_m : array_like, shape (..., 3)
+            Points in local NED, m.
+
+        Raises
+        ------
+        GeometryError
+            When the plane's point is unknown (``point_ned_m`` is None).
+        """
+        if self.point_ned_m is None:
+            raise GeometryError("the seabed plane's position is unknown (point_ned_m is None)")
+        p = np.asarray(points_ned_m, dtype=np.float64)
+        return (p - np.asarray(self.point_ned_m)) @ np.asarray(self.normal_ned)
