@@ -143,6 +143,7 @@ class VehicleLink:
     ) -> None:
         self.config = config
         self._clock: Clock = clock if clock is not None else WallClock()
+        self._wall_clock = isinstance(self._clock, WallClock)
         self._threaded = threaded
         self._on_link_lost = on_link_lost
         self._on_link_restored = on_link_restored
@@ -224,6 +225,9 @@ class VehicleLink:
     def close(self) -> None:
         """Stop the I/O thread, close the connection and the tlog."""
         self._stop.set()
+        notify = getattr(self._clock, "notify", None)
+        if notify is not None:
+            notify()
         if self._thread is not None:
             self._thread.join(timeout=5.0)
             self._thread = None
@@ -243,11 +247,29 @@ class VehicleLink:
     # ---- I/O loop ----------------------------------------------------------------------
 
     def _run(self) -> None:
-        while not self._stop.is_set():
-            try:
-                self._service_once(self.config.io_poll_s)
-            except Exception:  # keep the link alive whatever one message does
-                _log.exception("vehicle_link I/O pass failed")
+        participant = getattr(self._clock, "participant", None)
+        wait_for = getattr(self._clock, "wait_for", None)
+        if participant is None or wait_for is None:
+            while not self._stop.is_set():
+                self._service_pass(self.config.io_poll_s)
+            return
+        # A lockstep simulation clock (sim_harness.clock.SimClock) advances only while every
+        # participant waits on it: this thread joins in, drains the socket without blocking,
+        # then waits on the clock, so no reply of the simulated vehicle is ever missed or
+        # late in simulated time.
+        with participant("vehicle_link-io"):
+            while not self._stop.is_set():
+                self._service_pass(0.0)
+                try:
+                    wait_for(self._stop.is_set, self.config.io_poll_s)
+                except Exception:  # the clock was stopped: the simulation is over
+                    return
+
+    def _service_pass(self, wait_s: float) -> None:
+        try:
+            self._service_once(wait_s)
+        except Exception:  # keep the link alive whatever one message does
+            _log.exception("vehicle_link I/O pass failed")
 
     def pump(self, max_wait_s: float = 0.0) -> None:
         """Receive and dispatch what has arrived, send the heartbeat if due (unthreaded use)."""
@@ -399,8 +421,15 @@ class VehicleLink:
                 remaining = deadline - self._clock.now_s()
                 if remaining <= 0.0:
                     return False
-                if self._threaded:
+                if self._threaded and self._wall_clock:
                     self._cond.wait(timeout=min(remaining, poll_s))
+                elif self._threaded:
+                    # An injected (simulated) clock: wait on it, so simulated time goes on.
+                    self._cond.release()
+                    try:
+                        self._clock.sleep_s(min(remaining, poll_s))
+                    finally:
+                        self._cond.acquire()
                 else:
                     self._cond.release()
                     try:

@@ -1,0 +1,263 @@
+"""Simulation time: a lockstep clock shared by the simulator and the code under test.
+
+The simulator owns the clock and moves it forward in fixed steps with
+:meth:`SimClock.advance_to`. Other threads read :meth:`SimClock.now_s` and wait on
+simulated time with :meth:`SimClock.sleep_s`, :meth:`SimClock.sleep_until` or
+:meth:`SimClock.wait_for` (a wait on a predicate with a timeout in simulated seconds).
+
+Lockstep: a thread that registers as a *participant* (``with clock.participant(): ...``)
+holds the simulator back while it runs. The simulator only advances time when every
+participant is waiting on the clock (sleeping, or waiting on a predicate that is false)
+and none of them is due (deadline passed, or poked by :meth:`SimClock.notify`). So a
+controller thread sees simulated time pass only while it waits, exactly as much as it
+asked for, however slow or fast the machine is; when all participants wait, the simulator
+runs as fast as it can (``speedup=None``) or paced to the wall clock (``speedup=1.0`` is
+real time, ``speedup=10.0`` ten times real time).
+
+Threads that are not participants may also wait on the clock; they never hold it back.
+
+Predicates passed to :meth:`SimClock.wait_for` are evaluated by the waiting thread
+outside the clock's lock. A thread that changes what a predicate reads (e.g. a socket
+reader that stores a received message) calls :meth:`SimClock.notify` afterwards, without
+holding the clock's lock; waiters then re-check their predicates before the simulator
+moves on.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+from sim_harness.errors import ClockStopped, LockstepStall, SimConfigError
+
+#: Wall seconds the simulator waits for a running participant before it gives up.
+DEFAULT_STALL_TIMEOUT_S = 60.0
+
+
+@dataclass
+class _Participant:
+    """Lockstep state of one registered thread (guarded by the clock's lock)."""
+
+    name: str
+    waiting: bool = False
+    deadline_s: float = float("inf")
+    poked: bool = False
+
+
+class SimClock:
+    """A simulated clock with lockstep participants and optional wall-clock pacing.
+
+    Parameters
+    ----------
+    start_s
+        Simulated time at creation, seconds.
+    speedup
+        ``None``: advance as fast as participants allow. A positive number: never run
+        faster than that many simulated seconds per wall second (1.0 = real time).
+    stall_timeout_s
+        Wall seconds :meth:`advance_to` waits for running participants before raising
+        :class:`~sim_harness.errors.LockstepStall`.
+    """
+
+    def __init__(
+        self,
+        *,
+        start_s: float = 0.0,
+        speedup: float | None = None,
+        stall_timeout_s: float = DEFAULT_STALL_TIMEOUT_S,
+    ) -> None:
+        if speedup is not None and not speedup > 0.0:
+            raise SimConfigError(f"must be positive or None, got {speedup}", key="speedup")
+        if not stall_timeout_s > 0.0:
+            raise SimConfigError(f"must be positive, got {stall_timeout_s}", key="stall_timeout_s")
+        self._now_s = float(start_s)
+        self._speedup = speedup
+        self._stall_timeout_s = stall_timeout_s
+        self._cond = threading.Condition()
+        self._participants: dict[int, _Participant] = {}
+        self._stopped = False
+        self._generation = 0
+        self._pace_origin: tuple[float, float] | None = None  # (wall_s, sim_s)
+
+    # -- reading -------------------------------------------------------------------
+    def now_s(self) -> float:
+        """Current simulated time, seconds."""
+        return self._now_s
+
+    @property
+    def speedup(self) -> float | None:
+        """Pacing factor (simulated s per wall s), or None when running free."""
+        return self._speedup
+
+    @property
+    def stopped(self) -> bool:
+        """True once :meth:`stop` was called."""
+        return self._stopped
+
+    # -- participants --------------------------------------------------------------
+    def register(self, name: str | None = None) -> None:
+        """Register the calling thread as a lockstep participant (it starts running)."""
+        ident = threading.get_ident()
+        with self._cond:
+            if ident in self._participants:
+                raise SimConfigError("thread is already a participant", key="register")
+            self._participants[ident] = _Participant(name or threading.current_thread().name)
+
+    def unregister(self) -> None:
+        """Remove the calling thread from the participants (no-op if it is not one)."""
+        with self._cond:
+            self._participants.pop(threading.get_ident(), None)
+            self._cond.notify_all()
+
+    @contextmanager
+    def participant(self, name: str | None = None) -> Iterator[SimClock]:
+        """Context manager: the calling thread is a lockstep participant inside it."""
+        self.register(name)
+        try:
+            yield self
+        finally:
+            self.unregister()
+
+    # -- waiting -------------------------------------------------------------------
+    def sleep_s(self, duration_s: float) -> None:
+        """Block until simulated time has passed ``now_s() + duration_s``."""
+        if duration_s < 0.0:
+            raise ValueError(f"sleep duration must be >= 0 s, got {duration_s}")
+        self.sleep_until(self._now_s + duration_s)
+
+    def sleep_until(self, deadline_s: float) -> None:
+        """Block until simulated time is at or past ``deadline_s``."""
+        self.wait_for(_never, deadline_s - self._now_s)
+
+    def wait_for(
+        self, predicate: Callable[[], bool], timeout_s: float, *, poll_s: float | None = None
+    ) -> bool:
+        """Wait until ``predicate()`` is true or ``timeout_s`` simulated seconds pass.
+
+        Returns the last value of the predicate (True: condition met, False: timed out).
+        The predicate is re-checked whenever :meth:`notify` is called, every ``poll_s``
+        simulated seconds if given (for predicates that poll, e.g. a non-blocking socket
+        read: in lockstep this is fully repeatable), and at the deadline. Raises
+        :class:`~sim_harness.errors.ClockStopped` if the clock is stopped while waiting.
+        """
+        if poll_s is not None and not poll_s > 0.0:
+            raise ValueError(f"poll_s must be positive, got {poll_s}")
+        ident = threading.get_ident()
+        with self._cond:
+            deadline_s = self._now_s + max(timeout_s, 0.0)
+            me = self._participants.get(ident)
+            if me is not None:
+                me.poked = False
+        try:
+            while True:
+                with self._cond:
+                    generation = self._generation
+                if predicate():
+                    return True
+                with self._cond:
+                    if self._stopped:
+                        raise ClockStopped("simulation clock stopped while waiting")
+                    if self._now_s >= deadline_s:
+                        break
+                    if me is None:
+                        # Non-participants re-check after every time step or notify.
+                        if generation == self._generation:
+                            self._cond.wait()
+                        continue
+                    if me.poked:
+                        me.poked = False
+                        continue
+                    wake_s = deadline_s if poll_s is None else min(deadline_s, self._now_s + poll_s)
+                    me.deadline_s = wake_s
+                    me.waiting = True
+                    self._cond.notify_all()
+                    while not self._stopped and self._now_s < wake_s and not me.poked:
+                        self._cond.wait()
+                    me.waiting = False
+                    me.poked = False
+        finally:
+            with self._cond:
+                if me is not None:
+                    me.waiting = False
+                    me.deadline_s = float("inf")
+        return bool(predicate())
+
+    def notify(self) -> None:
+        """Ask every waiting thread to re-check its predicate before time moves on."""
+        with self._cond:
+            for p in self._participants.values():
+                p.poked = True
+            self._generation += 1
+            self._cond.notify_all()
+
+    # -- advancing (simulator side) ------------------------------------------------
+    def _all_participants_idle(self) -> bool:
+        now = self._now_s
+        return all(
+            p.waiting and not p.poked and p.deadline_s > now for p in self._participants.values()
+        )
+
+    def wait_until_idle(self) -> None:
+        """Block until every participant waits on the clock (simulator side).
+
+        The simulator calls this before reading its inputs, so that everything the
+        participants sent at the current time is there to read: the run is then the same
+        whatever the thread scheduling. Raises ``LockstepStall`` or ``ClockStopped``.
+        """
+        with self._cond:
+            self._wait_idle_locked()
+            if self._stopped:
+                raise ClockStopped("simulation clock stopped")
+
+    def _wait_idle_locked(self) -> None:
+        wall_limit = time.monotonic() + self._stall_timeout_s
+        while not self._stopped and not self._all_participants_idle():
+            remaining = wall_limit - time.monotonic()
+            if remaining <= 0.0:
+                running = tuple(
+                    p.name for p in self._participants.values() if not p.waiting or p.poked
+                )
+                raise LockstepStall(
+                    f"participants did not yield within {self._stall_timeout_s} wall s",
+                    participants=running,
+                )
+            self._cond.wait(remaining)
+
+    def advance_to(self, t_s: float) -> None:
+        """Move simulated time to ``t_s`` once every participant waits (simulator only).
+
+        Blocks while any participant runs, and, when paced, until the wall clock allows.
+        Raises :class:`~sim_harness.errors.LockstepStall` if participants keep running
+        for longer than the stall timeout, and ``ClockStopped`` after :meth:`stop`.
+        """
+        with self._cond:
+            if t_s < self._now_s:
+                raise ValueError(f"time cannot go back: {t_s} s < now {self._now_s} s")
+            self._wait_idle_locked()
+            if self._speedup is not None:
+                if self._pace_origin is None:
+                    self._pace_origin = (time.monotonic(), self._now_s)
+                wall0, sim0 = self._pace_origin
+                while not self._stopped:
+                    lag = wall0 + (t_s - sim0) / self._speedup - time.monotonic()
+                    if lag <= 0.0:
+                        break
+                    self._cond.wait(lag)
+            if self._stopped:
+                raise ClockStopped("simulation clock stopped")
+            self._now_s = t_s
+            self._generation += 1
+            self._cond.notify_all()
+
+    def stop(self) -> None:
+        """Stop the clock: every waiter and the simulator get ``ClockStopped``."""
+        with self._cond:
+            self._stopped = True
+            self._cond.notify_all()
+
+
+def _never() -> bool:
+    return False
