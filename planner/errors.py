@@ -24,3 +24,28 @@ class InfeasibleError(ValueError):
     def __init__(self, reason: str):
         super().__init__(reason)
         self.reason = reason
+
+
+class AreaError(ValueError):
+    """The survey area file is invalid; ``path`` names the file."""
+
+    def __init__(self, message: str, *, path: str | None = None):
+        super().__init__(f"{path}: {message}" if path else message)
+        self.path = path
+
+
+class SafetyViolation(RuntimeError):
+    """A command would leave the safety envelope; it was not sent. ``reason`` is a short code."""
+
+    def __init__(self, message: str, *, reason: str):
+        super().__init__(message)
+        self.reason = reason
+
+
+class MissionAborted(RuntimeError):
+    """The executor aborted the dive; ``reason`` says why and ``state`` where."""
+
+    def __init__(self, message: str, *, reason: str, state: str):
+        super().__init__(message)
+        self.reason = reason
+        self.state = state

@@ -1,0 +1,158 @@
+"""Obstacle-free transits: straight when possible, else the shortest visibility-graph path.
+
+The free region is a shapely (Multi)Polygon in plane coordinates ``(east_m, north_m)``;
+its rings (the grown outer boundary and the holes/keep-outs) are barriers that no
+transit segment may cross. Graph nodes are the corners of the free region shrunk by a
+margin, so paths bend at that distance from obstacle corners.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+from scipy.sparse.csgraph import shortest_path
+
+from planner.errors import InfeasibleError
+
+FloatArray = NDArray[np.float64]
+
+#: Orientation values smaller than this (m^2) count as collinear.
+_EPS = 1e-9
+
+
+def _pt(p: tuple[float, float] | FloatArray) -> tuple[float, float]:
+    return (float(p[0]), float(p[1]))
+
+
+def _ring_edges(geom: shapely.Geometry) -> FloatArray:
+    """All ring edges of a (Multi)Polygon, shape (k, 2, 2)."""
+    edges = []
+    for poly in shapely.get_parts(geom):
+        for ring in [poly.exterior, *poly.interiors]:
+            c = np.asarray(ring.coords)[:, :2]
+            edges.append(np.stack([c[:-1], c[1:]], axis=1))
+    return np.concatenate(edges) if edges else np.zeros((0, 2, 2))
+
+
+def _ring_vertices(geom: shapely.Geometry) -> FloatArray:
+    pts = []
+    for poly in shapely.get_parts(geom):
+        for ring in [poly.exterior, *poly.interiors]:
+            pts.append(np.asarray(ring.coords)[:-1, :2])
+    return np.concatenate(pts) if pts else np.zeros((0, 2))
+
+
+def segments_cross(a: FloatArray, b: FloatArray, edges: FloatArray) -> NDArray[np.bool_]:
+    """Which segments ``a[i]-b[i]`` properly cross any of ``edges``; shape (n,).
+
+    ``a``, ``b`` shape (n, 2); ``edges`` shape (k, 2, 2). Touching at an end point does not
+    count as crossing.
+    """
+    if len(edges) == 0 or len(a) == 0:
+        return np.zeros(len(a), dtype=bool)
+    p1, p2 = a[:, None, :], b[:, None, :]
+    q1, q2 = edges[None, :, 0, :], edges[None, :, 1, :]
+
+    def orient(o: FloatArray, u: FloatArray, w: FloatArray) -> FloatArray:
+        return (u[..., 0] - o[..., 0]) * (w[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (
+            w[..., 0] - o[..., 0]
+        )
+
+    d1, d2 = orient(q1, q2, p1), orient(q1, q2, p2)
+    d3, d4 = orient(p1, p2, q1), orient(p1, p2, q2)
+    cross = ((d1 > _EPS) & (d2 < -_EPS) | (d1 < -_EPS) & (d2 > _EPS)) & (
+        (d3 > _EPS) & (d4 < -_EPS) | (d3 < -_EPS) & (d4 > _EPS)
+    )
+    return np.asarray(cross.any(axis=1))
+
+
+@dataclass
+class Router:
+    """Shortest obstacle-free paths inside a free region (builds its graph on first need).
+
+    Parameters
+    ----------
+    free : shapely (Multi)Polygon
+        Where the vehicle may be, plane coordinates.
+    margin_m : float
+        Distance of the graph's corners from the region's boundary.
+    """
+
+    free: shapely.Geometry
+    margin_m: float = 1.0
+    _edges: FloatArray = field(init=False, repr=False)
+    _nodes: FloatArray | None = field(init=False, default=None, repr=False)
+    _dist: FloatArray | None = field(init=False, default=None, repr=False)
+    _pred: NDArray[np.int32] | None = field(init=False, default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        self._edges = _ring_edges(self.free)
+        shapely.prepare(self.free)
+
+    def visible(self, a: FloatArray, b: FloatArray) -> NDArray[np.bool_]:
+        """Which straight hops ``a[i] -> b[i]`` (shape (n, 2) each) stay in the free region."""
+        return self._visible(np.asarray(a, dtype=float).reshape(-1, 2),
+                             np.asarray(b, dtype=float).reshape(-1, 2))
+
+    def _visible(self, a: FloatArray, b: FloatArray) -> NDArray[np.bool_]:
+        ok = ~segments_cross(a, b, self._edges)
+        mid = 0.5 * (a + b)
+        ok &= shapely.intersects_xy(self.free, mid[:, 0], mid[:, 1])
+        return np.asarray(ok)
+
+    def _build(self) -> None:
+        nodes = np.zeros((0, 2))
+        for m in (self.margin_m, self.margin_m / 4, 0.01):
+            inner = self.free.buffer(-m, quad_segs=1, join_style="mitre", mitre_limit=2.0)
+            if not inner.is_empty:
+                nodes = _ring_vertices(inner)
+                nodes = nodes[shapely.intersects_xy(self.free, nodes[:, 0], nodes[:, 1])]
+                break
+        n = len(nodes)
+        ii, jj = np.triu_indices(n, k=1)
+        vis = self._visible(nodes[ii], nodes[jj]) if n > 1 else np.zeros(0, dtype=bool)
+        w = np.zeros((n, n))
+        d = np.hypot(*(nodes[ii] - nodes[jj]).T) if n > 1 else np.zeros(0)
+        w[ii[vis], jj[vis]] = d[vis]
+        w[jj[vis], ii[vis]] = d[vis]
+        dist, pred = shortest_path(w, method="D", directed=False, return_predecessors=True)
+        self._nodes, self._dist, self._pred = nodes, dist, pred
+
+    def route(self, start: tuple[float, float], goal: tuple[float, float]) -> list[tuple[float, float]]:
+        """Points from ``start`` to ``goal`` (both included) along free straight segments.
+
+        Raises
+        ------
+        InfeasibleError
+            When the two points are not connected inside the free region.
+        """
+        a = np.asarray([start], dtype=float)
+        b = np.asarray([goal], dtype=float)
+        if self._visible(a, b)[0]:
+            return [_pt(start), _pt(goal)]
+        if self._nodes is None:
+            self._build()
+        if self._nodes is None or self._dist is None or self._pred is None:
+            raise RuntimeError("routing graph was not built")
+        nodes, n = self._nodes, len(self._nodes)
+        if n == 0:
+            raise InfeasibleError(f"no obstacle-free transit from {start} to {goal}")
+        vis_a = self._visible(np.repeat(a, n, axis=0), nodes)
+        vis_b = self._visible(nodes, np.repeat(b, n, axis=0))
+        da = np.where(vis_a, np.hypot(*(nodes - a).T), np.inf)
+        db = np.where(vis_b, np.hypot(*(nodes - b).T), np.inf)
+        total = da[:, None] + self._dist + db[None, :]
+        i, j = np.unravel_index(int(np.argmin(total)), total.shape)
+        if not np.isfinite(total[i, j]):
+            raise InfeasibleError(
+                f"no obstacle-free transit from ({start[0]:.1f}, {start[1]:.1f}) to "
+                f"({goal[0]:.1f}, {goal[1]:.1f}) m: they lie in separate parts of the free region"
+            )
+        chain = [int(j)]
+        while chain[-1] != i:
+            chain.append(int(self._pred[i, chain[-1]]))
+        chain.reverse()
+        return [_pt(start)] + [_pt(nodes[k]) for k in chain] + [_pt(goal)]
