@@ -95,6 +95,7 @@ class VehicleConfig:
     max_pending_frames: int = 32  # sonar frames buffered for a slow consumer
     truth_log_interval_s: float = 0.1
     truth_log_length: int = 100_000
+    keep_label_images: bool = False  # keep each sonar frame's label images in the truth log
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -433,6 +434,10 @@ class VehicleSimulator:
         self.sonar.capture(t_s, pose, known)
 
     def _record_sonar_truth(self, t_s: float, truth: Any) -> None:
+        if not self.config.keep_label_images and hasattr(truth, "labels"):
+            # Per-target truth is small; the label images (two n_samples x n_beams arrays a
+            # frame) would grow to gigabytes over a dive: keep them only when asked.
+            truth = dataclasses.replace(truth, labels=truth.labels[:0, :0], owner=truth.owner[:0, :0])
         with self._truth_lock:
             self._sonar_truths.append((t_s, truth))
 

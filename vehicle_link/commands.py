@@ -163,6 +163,25 @@ def command_long(
     )
 
 
+def param_set(
+    name: str, value: float, target_system: int, target_component: int
+) -> mavlink2.MAVLink_param_set_message:
+    """PARAM_SET of a float parameter (ArduPilot stores every parameter as a float).
+
+    Raises
+    ------
+    ValueError
+        For a name longer than MAVLink's 16 characters, or a value that is not finite.
+    """
+    if not name or len(name) > 16:
+        raise ValueError(f"parameter name must be 1-16 characters, got {name!r}")
+    if not math.isfinite(value):
+        raise ValueError(f"parameter {name} value must be finite, got {value!r}")
+    return mavlink2.MAVLink_param_set_message(
+        target_system, target_component, name.encode("ascii"), float(value), mavlink2.MAV_PARAM_TYPE_REAL32
+    )
+
+
 def heartbeat_onboard_computer() -> mavlink2.MAVLink_heartbeat_message:
     """Our heartbeat: MAV_TYPE_ONBOARD_CONTROLLER, no autopilot, state ACTIVE."""
     return mavlink2.MAVLink_heartbeat_message(

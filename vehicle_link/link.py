@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import threading
 from collections import deque
 from collections.abc import Callable, Iterator
@@ -44,6 +45,7 @@ from vehicle_link.signing import enable_signing
 from vehicle_link.telemetry import (
     MAV_TYPE_SUBMARINE,
     Heartbeat,
+    ParamValue,
     TelemetryRecord,
     decode,
     store_key,
@@ -589,6 +591,36 @@ class VehicleLink:
         else:
             msg_id = int(message)
         self.send_command(commands.message_interval(msg_id, interval_s))
+
+    def set_parameter(self, name: str, value: float, *, timeout_s: float | None = None,
+                      attempts: int | None = None) -> float:
+        """PARAM_SET, confirmed by the vehicle's PARAM_VALUE echo; returns the value it holds.
+
+        Raises
+        ------
+        CommandRejected
+            When the vehicle echoes a different value (it clamped or refused it); the
+            ``result`` is MAV_RESULT_DENIED.
+        CommandTimeout
+            When no echo comes back after the bounded retries.
+        """
+        timeout = self.config.command_timeout_s if timeout_s is None else timeout_s
+        tries = self.config.command_attempts if attempts is None else attempts
+        start = self._clock.now_s()
+
+        def echoed() -> bool:
+            record = self._store.get(f"ParamValue:{name}")
+            return isinstance(record, ParamValue) and record.time_s >= start
+
+        for _ in range(tries):
+            self._send(commands.param_set(name, value, self._target(), 1))
+            if self._wait_until(echoed, timeout):
+                record = self._store[f"ParamValue:{name}"]
+                assert isinstance(record, ParamValue)
+                if not math.isclose(record.value, value, rel_tol=1e-6, abs_tol=1e-6):
+                    raise CommandRejected(0, mavlink2.MAV_RESULT_DENIED, "DENIED", f"PARAM_SET {name}={value}")
+                return record.value
+        raise CommandTimeout(0, f"PARAM_SET {name}", tries, timeout)
 
     # ---- mission channel ---------------------------------------------------------------
 

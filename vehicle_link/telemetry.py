@@ -186,6 +186,17 @@ class SysStatus:
     drop_rate_comm_pct: float
 
 
+@dataclass(frozen=True)
+class ParamValue:
+    """PARAM_VALUE: one autopilot parameter as the vehicle holds it."""
+
+    time_s: float
+    name: str
+    value: float
+    index: int
+    count: int
+
+
 TelemetryRecord = (
     Heartbeat
     | Attitude
@@ -198,6 +209,7 @@ TelemetryRecord = (
     | MissionItemReached
     | StatusText
     | SysStatus
+    | ParamValue
 )
 
 
@@ -379,6 +391,11 @@ def _sys_status(msg: Any, time_s: float) -> SysStatus:
     )
 
 
+def _param_value(msg: Any, time_s: float) -> ParamValue:
+    return ParamValue(time_s, _text(msg.param_id), float(msg.param_value), int(msg.param_index),
+                      int(msg.param_count))
+
+
 _DECODERS: dict[str, Callable[[Any, float], TelemetryRecord | None]] = {
     "HEARTBEAT": _heartbeat,
     "ATTITUDE": _attitude,
@@ -394,6 +411,7 @@ _DECODERS: dict[str, Callable[[Any, float], TelemetryRecord | None]] = {
     "MISSION_ITEM_REACHED": _mission_item_reached,
     "STATUSTEXT": _statustext,
     "SYS_STATUS": _sys_status,
+    "PARAM_VALUE": _param_value,
 }
 
 TELEMETRY_MESSAGE_TYPES: tuple[str, ...] = tuple(_DECODERS)
@@ -420,10 +438,13 @@ def store_key(record: TelemetryRecord) -> str:
     """Key under which the latest record of its kind is stored.
 
     Pressure is keyed per instance (``"Pressure1"``, ``"Pressure2"``), rangefinders per
-    source and id (``"Rangefinder:DISTANCE_SENSOR:0"``), every other record by class name.
+    source and id (``"Rangefinder:DISTANCE_SENSOR:0"``), parameters by name
+    (``"ParamValue:WPNAV_SPEED"``), every other record by class name.
     """
     if isinstance(record, Pressure):
         return f"Pressure{record.instance}"
     if isinstance(record, Rangefinder):
         return f"Rangefinder:{record.source}:{record.sensor_id}"
+    if isinstance(record, ParamValue):
+        return f"ParamValue:{record.name}"
     return type(record).__name__

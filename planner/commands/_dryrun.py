@@ -1,0 +1,316 @@
+"""A dry-run dive: plan, start the software vehicle, fly it over real MAVLink, score it.
+
+This is the one planner module that imports :mod:`sim_harness` (architecture.md: the CLI
+wiring the simulator in as the default vehicle). The controller side (executor,
+vehicle_link client, on-board perception) sees only MAVLink bytes on a UDP socket and
+sonar frames from the simulated sonar's ``poll``; simulator truth goes only to the
+scorer, after the dive, into ``truth.json``, ``truth_track.csv`` and ``shadows.csv``.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from perception.georef import LocalOrigin
+from planner.area import load_area
+from planner.config import Settings, load_settings
+from planner.errors import ConfigError
+from planner.executor import DiveResult, ExecutorConfig, FixedTilt, MissionExecutor, TiltController
+from planner.mission_files import write_outputs
+from planner.onboard import OnboardConfig, OnboardPerception
+from planner.outputs import summary_document, write_products
+from planner.run_folder import RunFolder
+from planner.safety import SafetyLimits
+from planner.survey import plan_survey
+from planner.survey_plan import SurveyPlan
+from sim_harness.clock import SimClock
+from sim_harness.dynamics import UniformCurrent
+from sim_harness.faults import FaultConfig, TimeWindow
+from sim_harness.scene import Scene, load_scene
+from sim_harness.sensors import SensorConfig
+from sim_harness.sonar import SonarConfig, SonarRenderer
+from sim_harness.vehicle_sim import VehicleConfig, VehicleSimulator
+from vehicle_link.client import ArduSubClient
+from vehicle_link.config import LinkConfig
+
+BUILTIN_SCENARIOS = ("paper-targets",)
+_SCENARIO_KEYS = {"name", "description", "scene", "area", "survey", "vehicle", "executor", "faults", "current",
+                  "sensors"}
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A dry-run dive: the world, the area and settings, the vehicle's start, faults."""
+
+    name: str
+    description: str
+    scene_path: Path
+    area_path: Path
+    survey_path: Path
+    start_north_m: float = 0.0
+    start_east_m: float = 0.0
+    start_heading_rad: float = 0.0
+    executor: dict[str, Any] = field(default_factory=dict)
+    faults: FaultConfig = field(default_factory=FaultConfig)
+    current_north_m_s: float = 0.0
+    current_east_m_s: float = 0.0
+    pitch_loop: bool = True
+    seed: int = 0
+    sensors: SensorConfig = field(default_factory=SensorConfig)
+
+
+def _scenario_file(source: str | Path) -> Path:
+    if str(source) in BUILTIN_SCENARIOS:
+        ref = resources.files("planner").joinpath("data", "scenarios", str(source), "scenario.toml")
+        return Path(str(ref))
+    path = Path(source)
+    if path.is_dir():
+        path = path / "scenario.toml"
+    if not path.is_file():
+        raise FileNotFoundError(f"{source}: no scenario file (built-in scenarios: {', '.join(BUILTIN_SCENARIOS)})")
+    return path
+
+
+def _windows(value: Any, key: str, path: str) -> tuple[TimeWindow, ...]:
+    if not isinstance(value, list) or not all(isinstance(w, list) and len(w) == 2 for w in value):
+        raise ConfigError("must be a list of [start_s, end_s] pairs", key=key, path=path)
+    return tuple(TimeWindow(float(a), float(b)) for a, b in value)
+
+
+def load_scenario(source: str | Path, **overrides: Any) -> Scenario:
+    """Load a scenario by built-in name, folder or ``scenario.toml`` path.
+
+    ``overrides`` replace fields of the loaded scenario (tests use this for faults).
+
+    Raises
+    ------
+    FileNotFoundError, ConfigError
+        Naming the file and the key that is wrong.
+    """
+    path = _scenario_file(source)
+    where = str(path)
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"not valid TOML: {exc}", path=where) from exc
+    unknown = sorted(set(doc) - _SCENARIO_KEYS)
+    if unknown:
+        raise ConfigError(f"unknown key; allowed: {', '.join(sorted(_SCENARIO_KEYS))}", key=unknown[0], path=where)
+    base = path.parent
+    files = {}
+    for key in ("scene", "area", "survey"):
+        if not isinstance(doc.get(key), str):
+            raise ConfigError("is required (a file name relative to the scenario)", key=key, path=where)
+        files[key] = base / doc[key]
+        if not files[key].is_file():
+            raise ConfigError(f"file {files[key]} not found", key=key, path=where)
+    vehicle = doc.get("vehicle", {})
+    faults_doc = dict(doc.get("faults", {}))
+    fault_kwargs: dict[str, Any] = {}
+    for key, value in faults_doc.items():
+        if key in ("link_cuts", "altimeter_dropouts", "position_loss"):
+            fault_kwargs[key] = _windows(value, f"faults.{key}", where)
+        elif key == "refuse_commands":
+            fault_kwargs[key] = frozenset(int(v) for v in value)
+        else:
+            fault_kwargs[key] = value
+    try:
+        faults = FaultConfig(**fault_kwargs)
+    except TypeError as exc:
+        raise ConfigError(f"bad fault setting: {exc}", key="faults", path=where) from exc
+    try:
+        sensors = SensorConfig(**doc.get("sensors", {}))
+    except TypeError as exc:
+        raise ConfigError(f"bad sensor setting: {exc}", key="sensors", path=where) from exc
+    current = doc.get("current", {})
+    executor = dict(doc.get("executor", {}))
+    pitch_loop = bool(executor.pop("pitch_loop", True))
+    scenario = Scenario(
+        name=str(doc.get("name", path.parent.name)),
+        description=str(doc.get("description", "")),
+        scene_path=files["scene"], area_path=files["area"], survey_path=files["survey"],
+        start_north_m=float(vehicle.get("start_north_m", 0.0)),
+        start_east_m=float(vehicle.get("start_east_m", 0.0)),
+        start_heading_rad=math.radians(float(vehicle.get("start_heading_deg", 0.0))),
+        executor=executor, faults=faults,
+        current_north_m_s=float(current.get("north_m_s", 0.0)),
+        current_east_m_s=float(current.get("east_m_s", 0.0)),
+        pitch_loop=pitch_loop, seed=int(vehicle.get("seed", 0)), sensors=sensors,
+    )
+    return replace(scenario, **overrides) if overrides else scenario
+
+
+@dataclass
+class DryRun:
+    """What a dry run produced (paths and figures); ``summary`` is ``summary.json``."""
+
+    out_dir: Path
+    plan: SurveyPlan
+    result: DiveResult
+    summary: dict[str, Any]
+    simulator: VehicleSimulator
+
+
+def _sonar_config(scene: Scene, settings: Settings, seed: int) -> SonarConfig:
+    sonar = settings.sonar
+    return SonarConfig(
+        window_start_m=sonar.window_start_m,
+        window_length_m=sonar.window_end_m - sonar.window_start_m,
+        samples_per_beam=sonar.samples_per_beam,
+        seed=seed,
+        fill_altitude=False,
+        **{k: v for k, v in scene.sonar.items() if k == "sound_speed_m_s"},
+    )
+
+
+def _executor_config(scenario: Scenario, settings: Settings) -> ExecutorConfig:
+    safety = SafetyLimits(min_clearance_m=settings.vehicle.min_clearance_m, depth_limit_m=settings.vehicle.max_depth_m)
+    try:
+        return ExecutorConfig(safety=safety, speed_m_s=settings.vehicle.speed_m_s,
+                              acceptance_radius_m=settings.mission.acceptance_radius_m, **scenario.executor)
+    except TypeError as exc:
+        raise ConfigError(f"unknown executor setting: {exc}", key="executor") from exc
+
+
+def make_tilt_controller(plan: SurveyPlan, settings: Settings, *, closed_loop: bool) -> TiltController:
+    """The pitch loop (closed on the sonar) or the fixed plan tilt."""
+    if not closed_loop:
+        return FixedTilt()
+    from planner.pitch_control import ShadowPitchLoop  # the casadi MPC, built once
+
+    return ShadowPitchLoop(plan, settings)
+
+
+def run_dry_dive(
+    scenario: Scenario,
+    out_dir: Path,
+    *,
+    progress: Callable[[float, float, str], None] | None = None,
+    write_frames: bool = False,
+) -> DryRun:
+    """Plan the scenario's survey, dry-run it against the software vehicle, write the run folder.
+
+    ``progress(sim_s, planned_s, state)`` is called every control cycle.
+    """
+    del write_frames
+    wall0 = time.perf_counter()
+    scene = load_scene(scenario.scene_path)
+    if not (math.isfinite(scene.world.origin_lat_deg) and math.isfinite(scene.world.origin_lon_deg)):
+        raise ConfigError("the scene must give an [origin] (lat_deg, lon_deg)", key="origin",
+                          path=str(scenario.scene_path))
+    origin = LocalOrigin(scene.world.origin_lat_deg, scene.world.origin_lon_deg)
+    settings = load_settings(scenario.survey_path)
+    area = load_area(scenario.area_path, origin=(origin.lat_deg, origin.lon_deg))
+    plan = plan_survey(area, settings)
+    run = RunFolder(out_dir)
+    write_outputs(plan, area, run.path("plan"))
+    run.write_json("truth.json", _truth_document(scene, origin))
+
+    clock = SimClock()
+    renderer = SonarRenderer(scene.world, _sonar_config(scene, settings, scenario.seed))
+    sim = VehicleSimulator(
+        scene.world,
+        config=VehicleConfig(start_north_m=scenario.start_north_m, start_east_m=scenario.start_east_m,
+                             start_yaw_rad=scenario.start_heading_rad, seed=scenario.seed,
+                             sensors=scenario.sensors),
+        faults=scenario.faults, clock=clock, listen="udp:127.0.0.1:0", sonar_renderer=renderer,
+        current=UniformCurrent(scenario.current_north_m_s, scenario.current_east_m_s),
+    )
+    host, port = sim.address
+    exec_config = _executor_config(scenario, settings)
+    link_config = LinkConfig(f"udpout:{host}:{port}", max_depth_m=settings.vehicle.max_depth_m,
+                             min_clearance_m=settings.vehicle.min_clearance_m,
+                             tlog_path=str(run.path("dive.tlog")))
+    onboard = OnboardPerception(OnboardConfig(specific_gravity=1.0))
+    tilt = make_tilt_controller(plan, settings, closed_loop=scenario.pitch_loop)
+    planned_s = sum(p.duration_s for p in plan.passes) + 60.0
+    holder: dict[str, Any] = {}
+
+    def cycle(executor: MissionExecutor) -> None:
+        now = clock.now_s()
+        if progress is not None:
+            progress(now, planned_s, executor.result.state)
+        if now - holder.get("products_s", now) > 60.0:
+            write_products(run, executor, origin)
+            holder["products_s"] = now
+
+    def fly() -> None:
+        with clock.participant("executor"):
+            client = ArduSubClient(link_config, clock=clock, on_link_lost=lambda h: executor.on_link_lost(h),
+                                   on_link_restored=lambda h: executor.on_link_restored(h))
+            executor = MissionExecutor(client, sim.sonar, plan, exec_config, run, clock, onboard, tilt=tilt,
+                                       on_cycle=cycle)
+            holder["executor"] = executor
+            client.add_listener(onboard.listener)
+            try:
+                holder["result"] = executor.run_dive()
+            finally:
+                client.close()
+
+    sim.start()
+    try:
+        pilot = threading.Thread(target=fly, name="executor")
+        pilot.start()
+        pilot.join()
+    finally:
+        sim.stop()
+    if "result" not in holder:
+        raise RuntimeError("the executor thread ended without a result (see the log above)")
+    result: DiveResult = holder["result"]
+    executor = holder["executor"]
+    products = write_products(run, executor, origin, final=True,
+                              truth_points=tuple((t.north_m, t.east_m, t.height_m) for t in scene.world.targets))
+    truth_extra = score_against_truth(run, sim, settings, products.targets)
+    summary = summary_document(result, executor, wall_s=time.perf_counter() - wall0,
+                               extra={"scenario": scenario.name, **truth_extra})
+    run.write_json("summary.json", summary)
+    run.close()
+    return DryRun(Path(out_dir), plan, result, summary, sim)
+
+
+def _truth_document(scene: Scene, origin: LocalOrigin) -> dict[str, Any]:
+    targets = []
+    for t in scene.world.targets:
+        lat, lon = origin.to_lat_lon(t.north_m, t.east_m)
+        targets.append({"id": t.target_id, "lat": round(float(lat), 9), "lon": round(float(lon), 9),
+                         "north_m": t.north_m, "east_m": t.east_m, "height_m": t.height_m, "shape": t.shape})
+    return {"scene": scene.name, "origin": {"lat_deg": origin.lat_deg, "lon_deg": origin.lon_deg},
+            "targets": targets}
+
+
+def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Settings,
+                        estimated: Any) -> dict[str, Any]:
+    """Simulation-only figures from the truth: clearance, depth limit, shadows in view."""
+    history = sim.truth_history()
+    run.write_csv("truth_track.csv", ("t_s", "north_m", "east_m", "depth_m", "altitude_m", "tilt_deg", "armed"),
+                  [[f"{h.time_s:.2f}", f"{h.north_m:.3f}", f"{h.east_m:.3f}", f"{h.depth_m:.3f}", f"{h.altitude_m:.3f}",
+                    f"{math.degrees(h.tilt_rad):.2f}", int(h.armed)] for h in history])
+    armed = [h for h in history if h.armed]
+    min_clear = min((h.altitude_m for h in armed), default=math.nan)
+    depth_violations = sum(1 for h in history if h.depth_m > settings.vehicle.max_depth_m)
+    rows = []
+    within = inside = 0
+    for t_s, truth in sim.sonar_truths():
+        for tt in truth.targets:
+            in_range = bool(tt.whole_shadow_in_window)
+            in_fov = bool(tt.whole_shadow_in_band) and in_range
+            rows.append([f"{t_s:.2f}", tt.target_id, int(in_range), int(in_fov)])
+            if in_range:
+                within += 1
+                inside += int(in_fov)
+    run.write_csv("shadows.csv", ("t_s", "target_id", "within_range", "in_fov"), rows)
+    del estimated
+    return {
+        "min_clearance_m": min_clear,
+        "depth_limit_violations": depth_violations,
+        "shadow_in_fov_ratio": inside / within if within else None,
+        "shadow_frames_within_range": within,
+    }
