@@ -328,16 +328,22 @@ class MissionExecutor:
         self._pass = pass_
         start = pass_.waypoints[0]
         self._yaw_rad = _bearing(start, pass_.waypoints[1]) if len(pass_.waypoints) > 1 else math.nan
+        # A commanded depth change: the altitude filter must expect the vehicle to move.
+        self.onboard.filter.set_maneuvering(True)
         self._go_to(start, pass_, state_timeout_s=self._leg_timeout(start))
         self._settle(pass_.altitude_m, start)
+        self.onboard.filter.set_maneuvering(False)
 
     def _change_altitude(self, pass_: SurveyPass) -> None:
         self._pass = pass_
         self._send_tilt(pass_.tilt_rad, force=True)
         start = pass_.waypoints[0]
         self._yaw_rad = _bearing(start, pass_.waypoints[1]) if len(pass_.waypoints) > 1 else math.nan
+        # A commanded depth change: the altitude filter must expect the vehicle to move.
+        self.onboard.filter.set_maneuvering(True)
         self._go_to(start, pass_, state_timeout_s=self._leg_timeout(start))
         self._settle(pass_.altitude_m, start)
+        self.onboard.filter.set_maneuvering(False)
 
     def _fly_pass(self, pass_: SurveyPass) -> None:
         self._pass = pass_
