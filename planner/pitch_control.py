@@ -5,7 +5,9 @@ zero, beam azimuth, the frame's altitude, tilt and pitch) become the loop's targ
 (:func:`planner.pitch_loop.shadow_from_measurement`); targets already mapped with a
 height that lie ahead but are not in the newest frame are fed forward from their seabed
 positions (:func:`planner.pitch_loop.shadow_from_ned`), so the beam is ready for them
-before they appear. The MPC (:class:`planner.pitch_loop.PitchLoop`) is built once per
+before they appear, and targets seen in the last ``memory_frames`` frames but lost in the
+newest one (a shadow slipping out of the band) stay served from their last position.
+The MPC (:class:`planner.pitch_loop.PitchLoop`) is built once per
 pass, with the pass's planned tilt as the nominal (it keeps the mosaic's coverage).
 """
 
@@ -42,8 +44,10 @@ class ShadowPitchLoop:
     mount : MountLimits, optional
     """
 
-    def __init__(self, plan: SurveyPlan, settings: Settings, *, mount: MountLimits = DEFAULT_MOUNT):
+    def __init__(self, plan: SurveyPlan, settings: Settings, *, mount: MountLimits = DEFAULT_MOUNT,
+                 memory_frames: int = 30):
         self.mount = mount
+        self.memory_frames = memory_frames
         sonar = settings.sonar
         self._loops: dict[str, PitchLoop] = {}
         for pass_ in plan.passes:
@@ -76,10 +80,15 @@ class ShadowPitchLoop:
                 except ValueError:
                     continue
         if nav is not None and math.isfinite(nav.north_m):
+            newest = onboard.heights.n_frames - 1
             for t in onboard.targets():
-                if t.target_id in seen or t.height_m is None or not math.isfinite(t.north_m):
+                if t.target_id in seen or not t.detections:
                     continue
-                shadows.append(shadow_from_ned(t.target_id, target_ned_m=(t.north_m, t.east_m),
+                last = t.detections[-1]
+                recent = newest - last.frame_index <= self.memory_frames
+                if not (last.has_position and (recent or t.height_m is not None)):
+                    continue
+                shadows.append(shadow_from_ned(t.target_id, target_ned_m=(last.north_m, last.east_m),
                                                sonar_ned_m=(nav.north_m, nav.east_m), heading_rad=nav.heading_rad,
                                                height_m=t.height_m))
         del altitude_m

@@ -42,6 +42,9 @@ from vehicle_link.client import ArduSubClient
 from vehicle_link.config import LinkConfig
 
 BUILTIN_SCENARIOS = ("paper-targets",)
+#: Shadow-in-view scoring (see :func:`score_against_truth`).
+FOV_MIN_AHEAD_ALTITUDES = 2.0
+FOV_SETTLE_S = 1.0
 _SCENARIO_KEYS = {"name", "description", "scene", "area", "survey", "vehicle", "executor", "faults", "current",
                   "sensors"}
 
@@ -268,12 +271,42 @@ def run_dry_dive(
     executor = holder["executor"]
     products = write_products(run, executor, origin, final=True,
                               truth_points=tuple((t.north_m, t.east_m, t.height_m) for t in scene.world.targets))
-    truth_extra = score_against_truth(run, sim, settings, products.targets)
+    truth_extra = score_against_truth(run, sim, settings, result, products.targets,
+                                      n_beams=renderer.config.n_beams, truth_targets=scene.world.targets)
     summary = summary_document(result, executor, wall_s=time.perf_counter() - wall0,
                                extra={"scenario": scenario.name, **truth_extra})
     run.write_json("summary.json", summary)
     run.close()
     return DryRun(Path(out_dir), plan, result, summary, sim)
+
+
+def score_heights(estimated: Any, truth_targets: Any, *, radius_m: float = 0.35) -> dict[str, Any]:
+    """Match each true target to the estimate nearest it with a height (within ``radius_m``;
+    among several, the one from the most frames) and score the heights.
+
+    Estimates are placed at the target's far top edge, so a target up to ``radius_m`` from
+    its estimate's position counts; a true target with no estimate is reported unmatched.
+    """
+    per_target = []
+    for t in truth_targets:
+        near = [e for e in estimated if math.isfinite(e.height_m)
+                and math.hypot(e.north_m - t.north_m, e.east_m - t.east_m) <= radius_m]
+        if not near:
+            per_target.append({"id": t.target_id, "true_height_m": t.height_m, "matched": False})
+            continue
+        best = max(near, key=lambda e: (e.frames_used, -math.hypot(e.north_m - t.north_m, e.east_m - t.east_m)))
+        per_target.append({"id": t.target_id, "true_height_m": t.height_m, "matched": True,
+                           "estimate_id": best.target_id, "height_m": best.height_m,
+                           "height_std_m": best.height_std_m, "frames_used": best.frames_used,
+                           "error_m": best.height_m - t.height_m})
+    errors = [abs(p["error_m"]) for p in per_target if p["matched"]]
+    return {
+        "n_matched": len(errors),
+        "n_truth_targets": len(per_target),
+        "height_mean_abs_error_m": sum(errors) / len(errors) if errors else None,
+        "height_max_abs_error_m": max(errors) if errors else None,
+        "heights_vs_truth": per_target,
+    }
 
 
 def _truth_document(scene: Scene, origin: LocalOrigin) -> dict[str, Any]:
@@ -286,9 +319,18 @@ def _truth_document(scene: Scene, origin: LocalOrigin) -> dict[str, Any]:
             "targets": targets}
 
 
-def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Settings,
-                        estimated: Any) -> dict[str, Any]:
-    """Simulation-only figures from the truth: clearance, depth limit, shadows in view."""
+def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Settings, result: DiveResult,
+                        estimated: Any, *, n_beams: int, truth_targets: Any) -> dict[str, Any]:
+    """Simulation-only figures from the truth: clearance, depth limit, shadows in view.
+
+    The shadow-in-view ratio counts, over the frames of the survey passes, the targets
+    *within range*: the whole shadow inside the range window, the target inside the fan
+    (not on its first or last beam), and at least ``FOV_MIN_AHEAD_ALTITUDES`` altitudes
+    ahead (nearer, the shadow sweeps through the vertical aperture faster than a mount can
+    follow: no tilt keeps it). Frames in the first ``FOV_SETTLE_S`` of a pass or of a
+    target coming into range are left out (the loop settling). The ratio is the share of
+    those in which the whole shadow lies inside the insonified band.
+    """
     history = sim.truth_history()
     run.write_csv("truth_track.csv", ("t_s", "north_m", "east_m", "depth_m", "altitude_m", "tilt_deg", "armed"),
                   [[f"{h.time_s:.2f}", f"{h.north_m:.3f}", f"{h.east_m:.3f}", f"{h.depth_m:.3f}", f"{h.altitude_m:.3f}",
@@ -298,19 +340,35 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
     depth_violations = sum(1 for h in history if h.depth_m > settings.vehicle.max_depth_m)
     rows = []
     within = inside = 0
+    pass_starts = [t for t, state in result.states if state.startswith("PASS_")]
+    entered: dict[str, float] = {}
     for t_s, truth in sim.sonar_truths():
+        pose, altitude = truth.pose, truth.altitude_m
         for tt in truth.targets:
-            in_range = bool(tt.whole_shadow_in_window)
-            in_fov = bool(tt.whole_shadow_in_band) and in_range
-            rows.append([f"{t_s:.2f}", tt.target_id, int(in_range), int(in_fov)])
-            if in_range:
+            in_fov = bool(tt.whole_shadow_in_band) and bool(tt.whole_shadow_in_window)
+            ahead = (tt.north_m - pose.north_m) * math.cos(pose.heading_rad) + \
+                (tt.east_m - pose.east_m) * math.sin(pose.heading_rad)
+            in_fan = len(tt.beams) > 0 and int(min(tt.beams)) > 0 and int(max(tt.beams)) < n_beams - 1
+            in_range = bool(tt.whole_shadow_in_window) and in_fan and ahead >= FOV_MIN_AHEAD_ALTITUDES * altitude
+            if not in_range:
+                entered.pop(tt.target_id, None)
+            else:
+                entered.setdefault(tt.target_id, t_s)
+            settled = in_range and t_s - entered.get(tt.target_id, t_s) >= FOV_SETTLE_S and any(
+                0.0 <= t_s - start for start in pass_starts) and all(
+                not 0.0 <= t_s - start < FOV_SETTLE_S for start in pass_starts)
+            rows.append([f"{t_s:.2f}", tt.target_id, int(in_range), int(in_fov), int(settled)])
+            if settled:
                 within += 1
                 inside += int(in_fov)
-    run.write_csv("shadows.csv", ("t_s", "target_id", "within_range", "in_fov"), rows)
-    del estimated
+    run.write_csv("shadows.csv", ("t_s", "target_id", "within_range", "in_fov", "settled"), rows)
+    heights = score_heights(estimated, truth_targets)
     return {
+        **heights,
         "min_clearance_m": min_clear,
         "depth_limit_violations": depth_violations,
         "shadow_in_fov_ratio": inside / within if within else None,
         "shadow_frames_within_range": within,
+        "shadow_in_fov_definition": (f"whole shadow in window and fan, target >= {FOV_MIN_AHEAD_ALTITUDES} "
+                                     f"altitudes ahead, {FOV_SETTLE_S} s settling excluded"),
     }

@@ -1,0 +1,226 @@
+"""Target solids placed on the seabed and their analytic ray intersections.
+
+All coordinates are local NED metres (x north, y east, z down; see
+:mod:`perception.geometry`). A solid's yaw turns its length axis clockwise from north.
+Every solid reaches from its top down to ``base_depth_m + footing_m``: the footing sinks it
+into the seabed so that no gap opens on a slope or on relief; the seabed hides the buried
+part because the nearest hit wins.
+
+``intersect(origin, directions, normals=True)`` returns, per ray, the first entry distance
+``t`` (``inf`` for a miss, and for rays that start inside) and the outward unit normal there
+(an empty (0, 3) array when ``normals`` is False).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+_NO_HIT = np.inf
+
+
+def _local_axes(yaw_rad: float) -> FloatArray:
+    """Rows: the length axis, the width axis and down, in NED."""
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class BoxSolid:
+    """A box: ``length_m`` along the yaw axis, ``width_m`` across, top ``height_m`` above base."""
+
+    north_m: float
+    east_m: float
+    base_depth_m: float
+    length_m: float
+    width_m: float
+    height_m: float
+    yaw_rad: float
+    footing_m: float
+
+    def corners_ned(self) -> FloatArray:
+        """The 8 corners, shape (8, 3), NED m."""
+        axes = _local_axes(self.yaw_rad)
+        hl, hw = self.length_m / 2, self.width_m / 2
+        z0, z1 = -self.height_m, self.footing_m
+        local = np.array(
+            [[u, v, z] for u in (-hl, hl) for v in (-hw, hw) for z in (z0, z1)], dtype=np.float64
+        )
+        return local @ axes + np.array([self.north_m, self.east_m, self.base_depth_m])
+
+    def intersect(
+        self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
+    ) -> tuple[FloatArray, FloatArray]:
+        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3)."""
+        axes = _local_axes(self.yaw_rad)
+        o = axes @ (origin - np.array([self.north_m, self.east_m, self.base_depth_m]))
+        d = np.einsum("ij,kj->ik", directions, axes)  # no BLAS: its threads hurt here
+        half = (self.length_m / 2, self.width_m / 2)
+        bounds = ((-half[0], half[0]), (-half[1], half[1]), (-self.height_m, self.footing_m))
+        entry = np.full(d.shape[0], -np.inf)
+        exit_ = np.full(d.shape[0], np.inf)
+        entry_axis = np.zeros(d.shape[0], dtype=np.int8)
+        with np.errstate(all="ignore"):
+            for axis in range(3):
+                comp = d[:, axis]
+                # a zero component: treat as tiny, so the slab is all or nothing
+                inv = 1.0 / np.where(comp == 0.0, 1e-300, comp)
+                lo, hi = bounds[axis]
+                t1 = (lo - o[axis]) * inv
+                t2 = (hi - o[axis]) * inv
+                near = np.minimum(t1, t2)
+                np.minimum(exit_, np.maximum(t1, t2), out=exit_)
+                later = near > entry
+                entry = np.where(later, near, entry)
+                entry_axis[later] = axis
+        hit = (entry <= exit_) & (entry > 0)
+        t = np.where(hit, entry, _NO_HIT)
+        if not normals:
+            return t, np.zeros((0, 3))
+        normal = np.zeros_like(d)
+        idx = np.nonzero(hit)[0]
+        if idx.size:
+            ax = entry_axis[idx]
+            # the entry face's outward normal, in NED: -sign(d_axis) * (row `ax` of axes)
+            normal[idx] = -np.sign(d[idx, ax])[:, None] * axes[ax]
+        return t, normal
+
+
+@dataclass(frozen=True)
+class CylinderSolid:
+    """A vertical cylinder of ``radius_m``, top ``height_m`` above its base."""
+
+    north_m: float
+    east_m: float
+    base_depth_m: float
+    radius_m: float
+    height_m: float
+    footing_m: float
+
+    def corners_ned(self) -> FloatArray:
+        """Corners of the bounding box, shape (8, 3), NED m."""
+        r = self.radius_m
+        return np.array(
+            [
+                [self.north_m + a, self.east_m + b, self.base_depth_m + z]
+                for a in (-r, r)
+                for b in (-r, r)
+                for z in (-self.height_m, self.footing_m)
+            ]
+        )
+
+    def intersect(
+        self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
+    ) -> tuple[FloatArray, FloatArray]:
+        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3)."""
+        top = self.base_depth_m - self.height_m
+        bottom = self.base_depth_m + self.footing_m
+        ox, oy = origin[0] - self.north_m, origin[1] - self.east_m
+        dx, dy, dz = directions[:, 0], directions[:, 1], directions[:, 2]
+        a = dx * dx + dy * dy
+        b = 2.0 * (ox * dx + oy * dy)
+        c = ox * ox + oy * oy - self.radius_m**2
+        disc = b * b - 4.0 * a * c
+        with np.errstate(all="ignore"):
+            t_side = (-b - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * a)
+            z_side = origin[2] + t_side * dz
+            side_ok = (a > 0) & (disc >= 0) & (t_side > 0) & (z_side >= top) & (z_side <= bottom)
+            t_side = np.where(side_ok, t_side, _NO_HIT)
+            t_cap = (top - origin[2]) / dz
+            px, py = ox + t_cap * dx, oy + t_cap * dy
+            cap_ok = (dz > 0) & (t_cap > 0) & (px * px + py * py <= self.radius_m**2)
+        t_cap = np.where(cap_ok, t_cap, _NO_HIT)
+        use_cap = t_cap < t_side
+        t = np.minimum(t_cap, t_side)
+        if not normals:
+            return t, np.zeros((0, 3))
+        hx, hy = ox + np.where(np.isfinite(t), t, 0.0) * dx, oy + np.where(np.isfinite(t), t, 0.0) * dy
+        rad = np.hypot(hx, hy)
+        rad = np.where(rad > 0, rad, 1.0)
+        normal = np.stack([hx / rad, hy / rad, np.zeros_like(hx)], axis=1)
+        normal[use_cap] = (0.0, 0.0, -1.0)
+        return t, normal
+
+
+@dataclass(frozen=True)
+class EllipsoidSolid:
+    """An ellipsoid centred at ``base_depth_m`` whose upper half stands ``height_m`` tall.
+
+    Semi-axes: ``length_m / 2`` along the yaw axis, ``width_m / 2`` across, ``height_m``
+    vertical. The lower half lies under the seabed (a rounded stone half buried).
+    """
+
+    north_m: float
+    east_m: float
+    base_depth_m: float
+    length_m: float
+    width_m: float
+    height_m: float
+    yaw_rad: float
+
+    def corners_ned(self) -> FloatArray:
+        """Corners of the bounding box of the upper half (plus a little below), NED m."""
+        axes = _local_axes(self.yaw_rad)
+        hl, hw = self.length_m / 2, self.width_m / 2
+        local = np.array(
+            [[u, v, z] for u in (-hl, hl) for v in (-hw, hw) for z in (-self.height_m, 0.5 * self.height_m)]
+        )
+        return local @ axes + np.array([self.north_m, self.east_m, self.base_depth_m])
+
+    def intersect(
+        self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
+    ) -> tuple[FloatArray, FloatArray]:
+        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3)."""
+        axes = _local_axes(self.yaw_rad)
+        scale = np.array([2.0 / self.length_m, 2.0 / self.width_m, 1.0 / self.height_m])
+        o = (axes @ (origin - np.array([self.north_m, self.east_m, self.base_depth_m]))) * scale
+        d = np.einsum("ij,kj->ik", directions, axes) * scale
+        a = np.einsum("ij,ij->i", d, d)
+        b = 2.0 * np.einsum("ij,j->i", d, o)
+        c = float(o @ o) - 1.0
+        disc = b * b - 4.0 * a * c
+        t = (-b - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * a)
+        ok = (disc >= 0) & (t > 0) & (c > 0)
+        t = np.where(ok, t, _NO_HIT)
+        if not normals:
+            return t, np.zeros((0, 3))
+        normal = np.zeros_like(directions)
+        idx = np.nonzero(ok)[0]
+        if idx.size:
+            p = o + t[idx, None] * d[idx]
+            grad = np.einsum("ij,jk->ik", p * scale, axes)  # gradient of |M x|^2 / 2, back in NED
+            normal[idx] = grad / np.sqrt(np.einsum("ij,ij->i", grad, grad))[:, None]
+        return t, normal
+
+
+@dataclass(frozen=True)
+class CompositeSolid:
+    """A union of ellipsoids (an irregular rock); the nearest lobe wins."""
+
+    lobes: tuple[EllipsoidSolid, ...]
+
+    def corners_ned(self) -> FloatArray:
+        """Corners of every lobe's bounding box, shape (8 * n_lobes, 3), NED m."""
+        return np.concatenate([lobe.corners_ned() for lobe in self.lobes])
+
+    def intersect(
+        self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
+    ) -> tuple[FloatArray, FloatArray]:
+        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3)."""
+        best_t = np.full(directions.shape[0], _NO_HIT)
+        best_n = np.zeros_like(directions) if normals else np.zeros((0, 3))
+        for lobe in self.lobes:
+            t, n = lobe.intersect(origin, directions, normals=normals)
+            closer = t < best_t
+            best_t = np.where(closer, t, best_t)
+            if normals:
+                best_n[closer] = n[closer]
+        return best_t, best_n
+
+
+Solid = BoxSolid | CylinderSolid | EllipsoidSolid | CompositeSolid
