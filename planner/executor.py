@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import threading
+import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal, Protocol
@@ -35,7 +36,13 @@ from planner.onboard import OnboardPerception
 from planner.run_folder import RunFolder
 from planner.safety import SafetyLimits, clamp_depth, safe_depth_for_altitude
 from planner.survey_plan import PlanWaypoint, SurveyPass, SurveyPlan
-from vehicle_link.errors import CommandRejected, CommandTimeout, StateChangeTimeout
+from vehicle_link.errors import (
+    CommandRejected,
+    CommandTimeout,
+    MissionTimeout,
+    StateChangeTimeout,
+    VehicleLinkError,
+)
 from vehicle_link.mission import waypoint
 from vehicle_link.modes import SubMode
 from vehicle_link.telemetry import SysStatus
@@ -109,6 +116,10 @@ class ExecutorConfig:
         Time allowed for the sensors to report healthy before arming, s.
     upload_mission : bool
         Upload and verify the plan as an AUTO mission in PREFLIGHT.
+    command_retries : int
+        How many times a command (mode, arming, parameter, mission upload) that got no
+        answer is sent again, each time with the link's own bounded retries; a refusal
+        is never retried.
     arm_vehicle_failsafe : bool
         In PREFLIGHT, point ArduSub's GCS failsafe at this controller (``SYSID_MYGCS`` =
         our system id) and set its action (``FS_GCS_ENABLE``: 3 depth hold for "hold",
@@ -133,6 +144,7 @@ class ExecutorConfig:
     link_restore_wait_s: float = 30.0
     preflight_timeout_s: float = 30.0
     upload_mission: bool = True
+    command_retries: int = 3
     arm_vehicle_failsafe: bool = True
 
     def __post_init__(self) -> None:
@@ -249,13 +261,22 @@ class MissionExecutor:
             r.status, r.reason = "completed", "survey flown"
             self._enter("COMPLETED")
         except MissionAborted as exc:
-            r.status, r.reason = "aborted", exc.reason
-            self.run.event(self.clock.now_s(), "failsafe", str(exc), reason=exc.reason, state=exc.state)
-            action = self.config.link_lost_action if exc.reason == "link_lost" else self.config.abort_action
-            self._abort_action(action, exc)
-            self._enter("ABORTED", reason=exc.reason)
+            self._aborted(exc)
+        except VehicleLinkError as exc:
+            self._aborted(self._abort("command_failed", f"vehicle command failed: {exc}"))
+        except Exception as exc:  # a controller bug must still end in the safe action
+            self.run.event(self.clock.now_s(), "error", "".join(traceback.format_exception(exc)))
+            self._aborted(self._abort("internal_error", f"{type(exc).__name__}: {exc}"))
         r.end_s = self.clock.now_s()
         return r
+
+    def _aborted(self, exc: MissionAborted) -> None:
+        r = self.result
+        r.status, r.reason = "aborted", exc.reason
+        self.run.event(self.clock.now_s(), "failsafe", str(exc), reason=exc.reason, state=exc.state)
+        action = self.config.link_lost_action if exc.reason == "link_lost" else self.config.abort_action
+        self._abort_action(action, exc)
+        self._enter("ABORTED", reason=exc.reason)
 
     # ------------------------------------------------------------------ states
     def _enter(self, state: str, **extra: Any) -> None:
@@ -269,12 +290,20 @@ class MissionExecutor:
 
     def _command(self, what: str, call: Callable[[], Any]) -> Any:
         """Run a vehicle command; a refusal or timeout aborts with the reason."""
-        try:
-            value = call()
-        except CommandRejected as exc:
-            raise self._abort("command_refused", f"vehicle refused {what}: {exc}") from exc
-        except (CommandTimeout, StateChangeTimeout) as exc:
-            raise self._abort("command_timeout", f"no answer to {what}: {exc}") from exc
+        attempts = self.config.command_retries
+        for attempt in range(1, attempts + 1):
+            try:
+                value = call()
+                break
+            except CommandRejected as exc:
+                raise self._abort("command_refused", f"vehicle refused {what}: {exc}") from exc
+            except (CommandTimeout, StateChangeTimeout, MissionTimeout) as exc:
+                # Every command the executor sends is idempotent: on a lossy link, send again.
+                if attempt == attempts or self._link_lost.is_set():
+                    raise self._abort("command_timeout", f"no answer to {what}: {exc}") from exc
+                self.run.event(self.clock.now_s(), "warning", f"{what}: attempt {attempt} unanswered, again")
+            except VehicleLinkError as exc:
+                raise self._abort("command_failed", f"{what} failed: {exc}") from exc
         self.run.event(self.clock.now_s(), "command", what)
         return value
 
@@ -425,6 +454,11 @@ class MissionExecutor:
         cfg = self.config
         if not fly:
             return
+        mode = self.client.mode
+        if mode is not None and mode != SubMode.GUIDED:
+            name = _mode_name(mode)
+            raise self._abort("vehicle_mode_change", f"the vehicle switched to {name} on its own (its failsafe or "
+                              "the pilot took over)")
         if now - self.onboard.last_depth_s > cfg.telemetry_stale_s:
             raise self._abort("stale_telemetry", f"no depth for {now - self.onboard.last_depth_s:.1f} s")
         nav = self.onboard.nav
@@ -442,6 +476,10 @@ class MissionExecutor:
 
     def _send_target(self, now: float, target: tuple[float, float], altitude_m: float) -> None:
         seabed, seabed_std = self.onboard.seabed_depth(now)
+        if not (math.isfinite(seabed) and math.isfinite(seabed_std)):
+            # No estimate right now (a gap in telemetry): the vehicle keeps its last target;
+            # the staleness checks abort if the gap lasts.
+            return
         try:
             cmd = safe_depth_for_altitude(altitude_m, seabed_depth_m=seabed, seabed_std_m=seabed_std,
                                           limits=self.config.safety)
@@ -461,9 +499,17 @@ class MissionExecutor:
         changed = not math.isfinite(self._tilt_cmd_rad) or abs(tilt_rad - self._tilt_cmd_rad) > math.radians(0.2)
         if force or (changed and now - self._tilt_sent_s >= self.config.control_period_s) \
                 or now - self._tilt_sent_s > 2.0:
-            self.client.set_mount_tilt(tilt_rad)
-            self._tilt_cmd_rad = tilt_rad
             self._tilt_sent_s = now
+            try:
+                self.client.set_mount_tilt(tilt_rad)
+            except (CommandTimeout, CommandRejected) as exc:
+                # Not worth a dive: the next cycle sends the tilt again. A lost link is
+                # caught by its own callback.
+                self.run.event(now, "warning", f"mount tilt not acknowledged: {exc}")
+                if self._link_lost.is_set():
+                    raise self._abort("link_lost", "lost the vehicle's heartbeat") from exc
+                return
+            self._tilt_cmd_rad = tilt_rad
 
     def _log(self, now: float) -> None:
         nav = self.onboard.nav
@@ -499,6 +545,11 @@ class MissionExecutor:
         if action == "surface":
             self._command(f"mode SURFACE ({why})", lambda: self.client.set_mode(SubMode.SURFACE))
         else:
+            if not self.client.armed:
+                self.run.event(now, "info", f"hold ({why}): the vehicle is disarmed, nothing to command")
+                return
+            if self.client.mode != SubMode.GUIDED:
+                self._command("mode GUIDED (to hold)", lambda: self.client.set_mode(SubMode.GUIDED))
             nav = self.onboard.nav
             depth, _ = self.onboard.depth(now)
             seabed, seabed_std = self.onboard.seabed_depth(now)
@@ -532,9 +583,16 @@ class MissionExecutor:
         try:
             self.onboard.drain()
             self._safe_action(action, f"abort: {exc.reason}")
-        except MissionAborted as again:
+        except (MissionAborted, VehicleLinkError, ValueError) as again:
             self.result.safe_action = f"{action} (failed: {again})"
             self.run.event(self.clock.now_s(), "failsafe", f"safe action failed: {again}")
+
+
+def _mode_name(mode: int) -> str:
+    try:
+        return SubMode(mode).name
+    except ValueError:
+        return f"mode {mode}"
 
 
 def _bearing(a: PlanWaypoint, b: PlanWaypoint) -> float:

@@ -74,7 +74,8 @@ class OnboardPerception:
     def __init__(self, config: OnboardConfig | None = None):
         self.config = cfg = config or OnboardConfig()
         self.filter = AltitudeFilter(AltitudeFilterConfig(specific_gravity=cfg.specific_gravity))
-        self.heights = HeightPipeline(HeightsConfig())
+        # Every frame carries the filter's altitude: no shared unknown reference to solve.
+        self.heights = HeightPipeline(HeightsConfig(shared_altitude=False))
         self.mosaic = MosaicBuilder(
             MosaicConfig(resolution_m=cfg.mosaic_resolution_m),
             RegistrationConfig() if cfg.registration else None,

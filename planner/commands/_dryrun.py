@@ -68,6 +68,7 @@ class Scenario:
     pitch_loop: bool = True
     seed: int = 0
     sensors: SensorConfig = field(default_factory=SensorConfig)
+    link_timeout_s: float = 5.0
 
 
 def _scenario_file(source: str | Path) -> Path:
@@ -136,6 +137,7 @@ def load_scenario(source: str | Path, **overrides: Any) -> Scenario:
     current = doc.get("current", {})
     executor = dict(doc.get("executor", {}))
     pitch_loop = bool(executor.pop("pitch_loop", True))
+    link_timeout_s = float(executor.pop("link_timeout_s", 5.0))
     scenario = Scenario(
         name=str(doc.get("name", path.parent.name)),
         description=str(doc.get("description", "")),
@@ -146,7 +148,7 @@ def load_scenario(source: str | Path, **overrides: Any) -> Scenario:
         executor=executor, faults=faults,
         current_north_m_s=float(current.get("north_m_s", 0.0)),
         current_east_m_s=float(current.get("east_m_s", 0.0)),
-        pitch_loop=pitch_loop, seed=int(vehicle.get("seed", 0)), sensors=sensors,
+        pitch_loop=pitch_loop, seed=int(vehicle.get("seed", 0)), sensors=sensors, link_timeout_s=link_timeout_s,
     )
     return replace(scenario, **overrides) if overrides else scenario
 
@@ -231,7 +233,8 @@ def run_dry_dive(
     exec_config = _executor_config(scenario, settings)
     link_config = LinkConfig(f"udpout:{host}:{port}", max_depth_m=settings.vehicle.max_depth_m,
                              min_clearance_m=settings.vehicle.min_clearance_m,
-                             tlog_path=str(run.path("dive.tlog")))
+                             tlog_path=str(run.path("dive.tlog")), link_timeout_s=scenario.link_timeout_s,
+                             heartbeat_period_s=0.5)
     onboard = OnboardPerception(OnboardConfig(specific_gravity=1.0))
     tilt = make_tilt_controller(plan, settings, closed_loop=scenario.pitch_loop)
     planned_s = sum(p.duration_s for p in plan.passes) + 60.0
@@ -266,6 +269,7 @@ def run_dry_dive(
     finally:
         sim.stop()
     if "result" not in holder:
+        run.close()
         raise RuntimeError("the executor thread ended without a result (see the log above)")
     result: DiveResult = holder["result"]
     executor = holder["executor"]

@@ -1,0 +1,392 @@
+"""Where a target's shadow starts and ends, per beam, to a fraction of a range sample.
+
+For each beam through the middle of a paired shadow (:mod:`perception.pairing`):
+
+- the shadow START is the highlight-to-shadow transition, the target's far top edge (the
+  paper's critical line): the range where the smoothed, row-normalised intensity falls
+  through the midpoint between the highlight level just before the edge and the shadow
+  level;
+- the shadow END is the shadow-to-seabed transition: the range where it rises through
+  the midpoint between the shadow level and the seabed level just after the shadow.
+
+Both crossings are interpolated linearly between the two samples that straddle the
+midpoint. A symmetric smoothing kernel moves neither crossing, so the sub-sample edge is
+unbiased for a step between flat levels. The beams are combined by their median; the
+spread between beams gives the standard deviation.
+
+Ranges are slant ranges from the sonar's acoustic centre (range ZERO), read from the
+frame's ``range_m`` axis at the fractional row, never counted from the window start.
+
+A shadow cut by the insonified band, the range window or the edge of the fan is flagged
+``truncated`` with the reason, and is not to be used for a height.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from perception.pairing import Pair
+from perception.segmentation import Segmentation
+
+#: Reasons, by field-of-view flag, why a shadow cannot give a height.
+TRUNCATION_REASONS = {
+    "first_beam": "shadow or highlight touches the first beam (edge of the fan)",
+    "last_beam": "shadow or highlight touches the last beam (edge of the fan)",
+    "window_start": "shadow starts at the range window's start",
+    "window_end": "shadow runs to the end of the range window",
+    "band_near": "shadow starts at the near edge of the insonified band",
+    "band_far": "shadow runs beyond the far edge of the insonified band",
+}
+
+#: Field-of-view flags that cut a measurement (a highlight cut at the window start does not).
+_CUTTING_FLAGS = ("first_beam", "last_beam", "window_end", "band_near", "band_far")
+
+
+@dataclass(frozen=True)
+class MeasureConfig:
+    """Settings of :func:`measure_pair`.
+
+    Attributes
+    ----------
+    central_fraction : float
+        Fraction of the pair's beams, around the middle, used for the edges.
+    min_beams : int
+        Fewest beams with both edges found for a measurement.
+    level_samples : int
+        Samples averaged (median) for the highlight, shadow and seabed levels.
+    smooth_samples : int
+        Range smoothing (box, samples) of the linear power profiles; edges are also
+        searched this far around the region boundaries.
+    smooth_beams : int
+        Beams averaged (centred, odd) into each beam's power profile.
+    """
+
+    central_fraction: float = 0.6
+    min_beams: int = 1
+    level_samples: int = 6
+    smooth_samples: int = 5
+    smooth_beams: int = 3
+
+    def __post_init__(self) -> None:
+        if not 0 < self.central_fraction <= 1:
+            raise ValueError(f"central_fraction must be in (0, 1], got {self.central_fraction}")
+        if self.min_beams < 1 or self.level_samples < 1 or self.smooth_samples < 1:
+            raise ValueError("min_beams, level_samples and smooth_samples must be >= 1")
+        if self.smooth_beams < 1 or self.smooth_beams % 2 == 0:
+            raise ValueError(f"smooth_beams must be an odd integer >= 1, got {self.smooth_beams}")
+
+
+@dataclass(frozen=True)
+class ShadowMeasurement:
+    """One target's shadow in one frame.
+
+    Attributes
+    ----------
+    azimuth_rad : float
+        Mean azimuth of the beams used, rad, positive to starboard.
+    r_top_m, r_end_m : float
+        Slant ranges of the shadow start (far top edge) and end from range zero, m
+        (median over the beams used); NaN when not measurable.
+    sigma_r_m : float
+        1-sigma of each of the two ranges, m (from the spread between beams, floored at a
+        quarter sample).
+    highlight_range_m : float
+        Slant range of the highlight's nearest sample, m.
+    columns : tuple of int
+        The beams (image columns) used.
+    r_top_per_beam_m, r_end_per_beam_m : tuple of float
+        Per-beam edges of those beams, m.
+    truncated : bool
+        True when the shadow is cut by an edge and must not give a height.
+    reason : str or None
+        Why it is truncated or not measurable.
+    overlap : float
+        Algorithm 1's overlap ratio of the pair.
+    shadow_width_beams : int
+        Number of beams the shadow spans.
+    """
+
+    azimuth_rad: float
+    r_top_m: float
+    r_end_m: float
+    sigma_r_m: float
+    highlight_range_m: float
+    columns: tuple[int, ...]
+    r_top_per_beam_m: tuple[float, ...]
+    r_end_per_beam_m: tuple[float, ...]
+    truncated: bool
+    reason: str | None
+    overlap: float
+    shadow_width_beams: int
+
+    @property
+    def usable(self) -> bool:
+        """True when the measurement can give a height."""
+        return not self.truncated and math.isfinite(self.r_top_m) and math.isfinite(self.r_end_m)
+
+
+def _central(columns: tuple[int, ...], fraction: float) -> list[int]:
+    cols = sorted(columns)
+    n = len(cols)
+    keep = max(1, int(round(n * fraction)))
+    start = (n - keep) // 2
+    return cols[start : start + keep]
+
+
+@dataclass(frozen=True)
+class _Edges:
+    columns: list[int]
+    tops: NDArray[np.float64]
+    ends: NDArray[np.float64]
+    far_cut: bool
+
+
+def _window_mean(cum: NDArray[np.float64], a: NDArray[np.intp], b: NDArray[np.intp]) -> NDArray[np.float64]:
+    """Per column j, mean of the rows [a_j, b_j) of the array whose cumulative sum is ``cum``."""
+    n = cum.shape[0] - 1
+    a = np.clip(a, 0, n)
+    b = np.clip(b, 0, n)
+    cols = np.arange(cum.shape[1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (cum[b, cols] - cum[a, cols]) / (b - a)
+
+
+def _edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> list[_Edges]:
+    """Fractional rows of the shadow start and end in each pair's central beams.
+
+    All pairs' beams are processed together, as columns of one block of rows.
+    """
+    n_rows, n_cols = segmentation.shadow_labels.shape
+    half = cfg.smooth_samples // 2
+    k_smooth = cfg.smooth_samples
+    parts: list[tuple[NDArray[np.intp], ...]] = []
+    far_cut = [False] * len(pairs)
+    for n, pair in enumerate(pairs):
+        t, s = pair.highlight, pair.shadow
+        beams = np.asarray(_central(pair.columns, cfg.central_fraction), dtype=np.intp)
+        t_first_all, _, t_present = pair.highlight_extents
+        s_first_all, s_last_all, s_present = pair.shadow_extents
+        t_i = beams - t.col_start
+        s_i = beams - s.col_start
+        ok = (t_i >= 0) & (t_i < t.n_cols) & (s_i >= 0) & (s_i < s.n_cols)
+        ok[ok] &= t_present[t_i[ok]] & s_present[s_i[ok]]
+        beams, t_i, s_i = beams[ok], t_i[ok], s_i[ok]
+        s_last = s_last_all[s_i]
+        ba = s_last + 1 + k_smooth
+        bb = np.minimum(n_rows, ba + cfg.level_samples)
+        cut = (bb - ba < max(2, cfg.level_samples // 2)) | (bb - 1 > segmentation.band_stop_rows[beams])
+        far_cut[n] = bool(cut.any())
+        keep = ~cut
+        owner = np.full(int(np.count_nonzero(keep)), n, dtype=np.intp)
+        parts.append(
+            (owner, beams[keep], t_first_all[t_i][keep], s_first_all[s_i][keep], s_last[keep],
+             ba[keep], bb[keep])
+        )
+    out = [_Edges([], np.zeros(0), np.zeros(0), cut) for cut in far_cut]
+    if not parts:
+        return out
+    owner, beams, t_first, s_first, s_last, ba, bb = (np.concatenate(v) for v in zip(*parts, strict=True))
+    if beams.size == 0:
+        return out
+    # Linear power of the beams (each averaged with its neighbours), smoothed in range;
+    # p[i, c] belongs to row off + i of beam beams[c].
+    r0 = max(0, int(t_first.min()) - half)
+    r1 = min(n_rows, int(bb.max()) + k_smooth)
+    if r1 - r0 < k_smooth + 2:
+        return out
+    b_half = cfg.smooth_beams // 2
+    shifts = [np.clip(beams + d, 0, n_cols - 1) for d in range(-b_half, b_half + 1)]
+    needed = np.unique(np.concatenate(shifts))
+    block = segmentation.power(slice(r0, r1), needed)
+    power = block[:, np.searchsorted(needed, shifts[0])]
+    for c in shifts[1:]:
+        power = power + block[:, np.searchsorted(needed, c)]
+    power /= len(shifts)
+    cum = np.concatenate([np.zeros((1, power.shape[1])), np.cumsum(power, axis=0)])
+    p = (cum[k_smooth:] - cum[:-k_smooth]) / k_smooth
+    off = r0 + half
+    cum_p = np.concatenate([np.zeros((1, p.shape[1])), np.cumsum(p, axis=0)])
+    idx = np.arange(p.shape[0])[:, None]
+    cols = np.arange(p.shape[1])
+    # Levels: shadow inside, seabed just after the shadow.
+    sa, sb = s_first + half, s_last + 1 - half
+    short = sb <= sa
+    sa = np.where(short, s_first, sa)
+    sb = np.where(short, s_last + 1, sb)
+    shadow_level = _window_mean(cum_p, sa - off, sb - off)
+    seabed_level = _window_mean(cum_p, ba - off, bb - off)
+    # The target's echo just before its far top edge (which may be weaker than the
+    # highlight's brightest part, e.g. a top seen at grazing incidence): find the edge
+    # roughly as the last sample above the dB-midpoint of shadow and seabed, then take
+    # the echo level a smoothing width before it.
+    core = np.minimum(s_first + k_smooth, s_last) - off
+    with np.errstate(invalid="ignore"):
+        rough_level = np.sqrt(shadow_level * seabed_level)
+    rough, has_rough = _last_true((p >= rough_level) & (idx <= core))
+    hb = rough - k_smooth
+    echo_level = _window_mean(cum_p, np.maximum(0, hb - cfg.level_samples), np.maximum(1, hb))
+    mid_top = 0.5 * (echo_level + shadow_level)
+    k_top, has_top = _last_true((p >= mid_top) & (idx < core))
+    k_next = np.minimum(k_top + 1, p.shape[0] - 1)
+    a_top, b_top = p[k_top, cols], p[k_next, cols]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        top = k_top + (a_top - mid_top) / (a_top - b_top)
+    has_top &= b_top < mid_top
+    mid_end = 0.5 * (shadow_level + seabed_level)
+    start = np.maximum(np.maximum(s_first, (s_first + s_last) // 2) - off, 1)
+    stop = s_last + k_smooth + 2 - off
+    k_end, has_end = _first_true((p >= mid_end) & (idx >= start) & (idx < stop))
+    a_end, b_end = p[k_end - 1, cols], p[k_end, cols]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        end = (k_end - 1) + (mid_end - a_end) / (b_end - a_end)
+    has_end &= (k_end >= 1) & (a_end < mid_end)
+    with np.errstate(invalid="ignore"):
+        good = (
+            (shadow_level < seabed_level) & has_rough & (echo_level > shadow_level)
+            & has_top & has_end & (end > top)
+        )
+    for n in range(len(pairs)):
+        mine = good & (owner == n)
+        out[n] = _Edges([int(b) for b in beams[mine]], top[mine] + off, end[mine] + off, far_cut[n])
+    return out
+
+
+def _last_true(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+    """Per column, the last row where ``mask`` holds, and whether any does."""
+    n = mask.shape[0]
+    last = (n - 1 - np.argmax(mask[::-1], axis=0)).astype(np.intp)
+    return last, np.asarray(mask.any(axis=0), dtype=bool)
+
+
+def _first_true(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+    """Per column, the first row where ``mask`` holds, and whether any does."""
+    return np.argmax(mask, axis=0).astype(np.intp), np.asarray(mask.any(axis=0), dtype=bool)
+
+
+def measure_pair(
+    segmentation: Segmentation,
+    pair: Pair,
+    *,
+    range_m: NDArray[np.float64],
+    beam_azimuth_rad: NDArray[np.float64],
+    config: MeasureConfig | None = None,
+) -> ShadowMeasurement:
+    """Measure the shadow start and end of one pair, per beam, and combine the beams.
+
+    Parameters
+    ----------
+    segmentation : Segmentation
+        The frame's segmentation (its image levels are read, not modified).
+    pair : Pair
+        A highlight-shadow pair of that segmentation.
+    range_m : ndarray, shape (n_samples,)
+        Slant range of each row from range zero, m.
+    beam_azimuth_rad : ndarray, shape (n_beams,)
+        Azimuth of each beam, rad.
+    config : MeasureConfig, optional
+
+    Returns
+    -------
+    ShadowMeasurement
+    """
+    cfg = config or MeasureConfig()
+    return _measurement(
+        segmentation, pair, _edges(segmentation, [pair], cfg)[0],
+        range_m=range_m, beam_azimuth_rad=beam_azimuth_rad, config=cfg,
+    )
+
+
+def _measurement(
+    segmentation: Segmentation,
+    pair: Pair,
+    edges: _Edges,
+    *,
+    range_m: NDArray[np.float64],
+    beam_azimuth_rad: NDArray[np.float64],
+    config: MeasureConfig,
+) -> ShadowMeasurement:
+    """Combine one pair's per-beam edges into its measurement."""
+    cfg = config
+    n_rows = segmentation.shadow_labels.shape[0]
+    rows_axis = np.arange(n_rows, dtype=np.float64)
+    t, s = pair.highlight, pair.shadow
+    cutting = [f for f in pair.fov_flags if f in _CUTTING_FLAGS]
+    far_cut = edges.far_cut
+    used = edges.columns
+    tops = edges.tops
+    ends = edges.ends
+    if far_cut and "band_far" not in cutting and "window_end" not in cutting:
+        cutting.append("band_far" if s.row_stop < n_rows else "window_end")
+    dr = float(range_m[-1] - range_m[0]) / (range_m.size - 1)
+    highlight_range = float(range_m[t.row_start])
+    width = s.n_cols
+    if len(used) < cfg.min_beams:
+        reason = "; ".join(TRUNCATION_REASONS[f] for f in cutting) if cutting else (
+            "no beam with both shadow edges found"
+        )
+        azimuth = float(np.mean(beam_azimuth_rad[list(pair.columns)]))
+        return ShadowMeasurement(
+            azimuth_rad=azimuth, r_top_m=math.nan, r_end_m=math.nan, sigma_r_m=math.nan,
+            highlight_range_m=highlight_range, columns=(), r_top_per_beam_m=(),
+            r_end_per_beam_m=(), truncated=bool(cutting), reason=reason,
+            overlap=pair.overlap, shadow_width_beams=width,
+        )
+    top_m = np.interp(tops, rows_axis, range_m)
+    end_m = np.interp(ends, rows_axis, range_m)
+    r_top = _median(top_m)
+    r_end = _median(end_m)
+    n = len(used)
+    spread = max(_robust_std(top_m), _robust_std(end_m))
+    sigma = max(1.2533 * spread / math.sqrt(n), 0.25 * dr / math.sqrt(n))
+    return ShadowMeasurement(
+        azimuth_rad=float(np.mean(beam_azimuth_rad[used])),
+        r_top_m=r_top,
+        r_end_m=r_end,
+        sigma_r_m=sigma,
+        highlight_range_m=highlight_range,
+        columns=tuple(used),
+        r_top_per_beam_m=tuple(float(v) for v in top_m),
+        r_end_per_beam_m=tuple(float(v) for v in end_m),
+        truncated=bool(cutting),
+        reason="; ".join(TRUNCATION_REASONS[f] for f in cutting) if cutting else None,
+        overlap=pair.overlap,
+        shadow_width_beams=width,
+    )
+
+
+def _robust_std(values: NDArray[np.float64]) -> float:
+    """1.4826 x median absolute deviation (0 for a single value)."""
+    if values.size < 2:
+        return 0.0
+    return 1.4826 * _median(np.abs(values - _median(values)))
+
+
+def _median(values: NDArray[np.float64]) -> float:
+    """Median of a short 1-D array (cheaper than ``np.median`` for a few values)."""
+    items = sorted(values.tolist())
+    n = len(items)
+    return float(items[n // 2]) if n % 2 else 0.5 * (items[n // 2 - 1] + items[n // 2])
+
+
+def measure_pairs(
+    segmentation: Segmentation,
+    pairs: Sequence[Pair],
+    *,
+    range_m: NDArray[np.float64],
+    beam_azimuth_rad: NDArray[np.float64],
+    config: MeasureConfig | None = None,
+) -> list[ShadowMeasurement]:
+    """:func:`measure_pair` for every pair of a frame, their beams processed together."""
+    cfg = config or MeasureConfig()
+    edges = _edges(segmentation, pairs, cfg)
+    return [
+        _measurement(
+            segmentation, pair, e, range_m=range_m, beam_azimuth_rad=beam_azimuth_rad, config=cfg
+        )
+        for pair, e in zip(pairs, edges, strict=True)
+    ]

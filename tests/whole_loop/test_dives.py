@@ -1,0 +1,139 @@
+"""Whole-loop dry-run dives: executor + vehicle_link over real MAVLink/UDP against the
+simulated ArduSub vehicle and sonar. Every assertion is a physical fact checked against
+the simulator's truth (never the controller's own view).
+
+The site (tests/whole_loop/data/compact) is a two-lane strip over the paper's five Table I
+targets, so that each dive dry-runs in well under a minute.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from planner.commands._dryrun import DryRun, load_scenario, run_dry_dive
+from sim_harness.faults import FaultConfig, TimeWindow
+
+SITE = Path(__file__).parent / "data" / "compact"
+MIN_CLEARANCE_M = 0.3  # survey.toml [vehicle] min_clearance_m
+DEPTH_LIMIT_M = 10.0  # survey.toml [vehicle] max_depth_m
+MAV_CMD_COMPONENT_ARM_DISARM = 400
+
+
+def _dive(tmp_path: Path, **overrides) -> DryRun:
+    return run_dry_dive(load_scenario(SITE, **overrides), tmp_path / "run")
+
+
+def _assert_safe(dry: DryRun) -> None:
+    """Clearance and depth limit held over the whole dive, from the simulator's truth."""
+    armed = [h for h in dry.simulator.truth_history() if h.armed]
+    if not armed:  # aborted before arming: it never left the surface
+        assert dry.summary["status"] == "aborted"
+        assert max(h.depth_m for h in dry.simulator.truth_history()) < 0.5
+    else:
+        assert min(h.altitude_m for h in armed) >= MIN_CLEARANCE_M
+    assert max(h.depth_m for h in dry.simulator.truth_history()) <= DEPTH_LIMIT_M
+    assert dry.summary["depth_limit_violations"] == 0
+
+
+@pytest.fixture(scope="module")
+def nominal(tmp_path_factory: pytest.TempPathFactory) -> DryRun:
+    return _dive(tmp_path_factory.mktemp("nominal"))
+
+
+@pytest.mark.slow
+def test_nominal_dive_completes_safely(nominal: DryRun):
+    assert nominal.summary["status"] == "completed", nominal.summary["reason"]
+    states = [s["state"] for s in nominal.summary["states"]]
+    assert states == ["CONNECT", "PREFLIGHT", "ARM", "DESCEND", "PASS_1", "ALTITUDE_CHANGE", "PASS_2", "FINISH",
+                      "COMPLETED"]
+    _assert_safe(nominal)
+    # Both passes flown at their planned altitudes (truth, while on the lanes).
+    track = list(csv.DictReader((nominal.out_dir / "truth_track.csv").open()))
+    for k, pass_ in enumerate(nominal.plan.passes):
+        start = next(s["t_s"] for s in nominal.summary["states"] if s["state"] == f"PASS_{k + 1}")
+        end = next(s["t_s"] for s in nominal.summary["states"] if s["t_s"] > start)
+        alts = [float(r["altitude_m"]) for r in track if start + 2 <= float(r["t_s"]) <= end]
+        assert alts and abs(sum(alts) / len(alts) - pass_.altitude_m) < 0.03
+
+
+@pytest.mark.slow
+def test_nominal_dive_measures_the_paper_targets(nominal: DryRun):
+    """Paper targets (2.8-4.7 cm high): mean |error| <= 0.2 cm against the truth."""
+    scored = [t for t in nominal.summary["heights_vs_truth"] if t["matched"]]
+    assert len(scored) >= 4, nominal.summary["heights_vs_truth"]
+    mean_err = sum(abs(t["error_m"]) for t in scored) / len(scored)
+    assert mean_err <= 0.002, nominal.summary["heights_vs_truth"]
+
+
+@pytest.mark.slow
+def test_nominal_dive_writes_a_complete_run_folder(nominal: DryRun):
+    out = nominal.out_dir
+    for name in ("plan/plan.json", "plan/survey.plan", "plan/survey.waypoints", "dive.tlog", "events.jsonl",
+                 "nav.csv", "filter.csv", "tilt.csv", "targets.geojson", "targets.csv", "mosaic.tif", "mosaic.png",
+                 "mosaic_heights.png", "summary.json", "truth.json"):
+        assert (out / name).is_file() and (out / name).stat().st_size > 0, name
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "completed"
+    truth = json.loads((out / "truth.json").read_text())
+    assert {t["id"] for t in truth["targets"]} == {"T1", "T2", "T3", "T4", "T5"}
+    assert all(-90 < t["lat"] < 90 and -180 < t["lon"] < 180 for t in truth["targets"])
+    geo = json.loads((out / "targets.geojson").read_text())
+    assert geo["type"] == "FeatureCollection" and geo["features"]
+
+
+@pytest.mark.slow
+def test_link_cut_ends_in_the_configured_safe_action(tmp_path):
+    """The link is cut for 40 s mid-survey: the dive aborts with link_lost, and the
+    vehicle's own failsafe (pointed at us in PREFLIGHT) surfaces it."""
+    dry = _dive(tmp_path, faults=FaultConfig(link_cuts=(TimeWindow(45.0, 85.0),)))
+    assert dry.summary["status"] == "aborted"
+    assert dry.summary["reason"] == "link_lost"
+    _assert_safe(dry)
+    history = dry.simulator.truth_history()
+    after = [h for h in history if h.time_s > 75.0]
+    assert after and after[-1].depth_m < 1.0  # surfaced (FS_GCS_ENABLE = 4)
+    events = [json.loads(line) for line in (dry.out_dir / "events.jsonl").read_text().splitlines()]
+    assert any(e["kind"] == "failsafe" and "link" in e["message"] for e in events)
+
+
+@pytest.mark.slow
+def test_refused_arming_aborts_without_moving(tmp_path):
+    dry = _dive(tmp_path, faults=FaultConfig(refuse_commands=frozenset({MAV_CMD_COMPONENT_ARM_DISARM})))
+    assert dry.summary["status"] == "aborted"
+    assert dry.summary["reason"] == "command_refused"
+    assert not any(h.armed for h in dry.simulator.truth_history())
+    assert max(h.depth_m for h in dry.simulator.truth_history()) < 0.5
+
+
+@pytest.mark.slow
+def test_packet_loss_and_latency(tmp_path):
+    """30 % packet loss each way and 200 ms latency: the dive completes or aborts safely,
+    with the reason, and the limits hold."""
+    dry = _dive(tmp_path, faults=FaultConfig(seed=5, packet_loss=0.3, latency_s=0.2))
+    assert dry.summary["status"] in ("completed", "aborted")
+    if dry.summary["status"] == "aborted":
+        assert dry.summary["reason"]
+    _assert_safe(dry)
+
+
+@pytest.mark.slow
+def test_altimeter_dropouts_and_depth_spikes(tmp_path):
+    dry = _dive(tmp_path, faults=FaultConfig(seed=7, depth_spike_prob=0.02, depth_spike_m=1.0,
+                                             altimeter_dropouts=(TimeWindow(50.0, 52.5), TimeWindow(70.0, 72.0))))
+    assert dry.summary["status"] == "completed", dry.summary["reason"]
+    _assert_safe(dry)
+    counters = dry.summary["filter_counters"]
+    assert counters["depth"]["rejected"] > 0  # the spikes were gated out
+
+
+@pytest.mark.slow
+def test_current_and_disturbances(tmp_path):
+    dry = _dive(tmp_path, current_north_m_s=0.05, current_east_m_s=0.08)
+    assert dry.summary["status"] == "completed", dry.summary["reason"]
+    _assert_safe(dry)
+    assert math.isfinite(dry.summary["min_clearance_m"])
