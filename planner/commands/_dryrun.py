@@ -24,6 +24,7 @@ from planner.area import load_area
 from planner.config import Settings, load_settings
 from planner.errors import ConfigError
 from planner.executor import DiveResult, ExecutorConfig, FixedTilt, MissionExecutor, TiltController
+from planner.height_score import score_heights
 from planner.mission_files import write_outputs
 from planner.onboard import OnboardConfig, OnboardPerception
 from planner.outputs import summary_document, write_products
@@ -284,31 +285,25 @@ def run_dry_dive(
     return DryRun(Path(out_dir), plan, result, summary, sim)
 
 
-def score_heights(estimated: Any, truth_targets: Any, *, radius_m: float = 0.35) -> dict[str, Any]:
-    """Match each true target to the estimate nearest it with a height (within ``radius_m``;
-    among several, the one from the most frames) and score the heights.
-
-    Estimates are placed at the target's far top edge, so a target up to ``radius_m`` from
-    its estimate's position counts; a true target with no estimate is reported unmatched.
-    """
+def _height_summary(estimated: Any, truth_targets: Any, *, radius_m: float = 0.35) -> dict[str, Any]:
+    """Heights against truth for summary.json (one-to-one matching by seabed position:
+    estimates sit at the target's far top edge, so within ``radius_m`` of its centre)."""
+    score = score_heights(list(estimated), list(truth_targets), radius_m=radius_m)
     per_target = []
-    for t in truth_targets:
-        near = [e for e in estimated if math.isfinite(e.height_m)
-                and math.hypot(e.north_m - t.north_m, e.east_m - t.east_m) <= radius_m]
-        if not near:
-            per_target.append({"id": t.target_id, "true_height_m": t.height_m, "matched": False})
-            continue
-        best = max(near, key=lambda e: (e.frames_used, -math.hypot(e.north_m - t.north_m, e.east_m - t.east_m)))
-        per_target.append({"id": t.target_id, "true_height_m": t.height_m, "matched": True,
-                           "estimate_id": best.target_id, "height_m": best.height_m,
-                           "height_std_m": best.height_std_m, "frames_used": best.frames_used,
-                           "error_m": best.height_m - t.height_m})
-    errors = [abs(p["error_m"]) for p in per_target if p["matched"]]
+    for k, t in enumerate(truth_targets):
+        e = next((x for x in score.errors if x.truth == k), None)
+        entry: dict[str, Any] = {"id": t.target_id, "true_height_m": t.height_m, "matched": e is not None}
+        if e is not None:
+            est = list(estimated)[e.estimated]
+            entry.update(estimate_id=est.target_id, height_m=e.height_m, height_std_m=e.height_std_m,
+                         frames_used=est.frames_used, error_m=e.error_m, distance_m=e.distance_m)
+        per_target.append(entry)
+    n = len(score.errors)
     return {
-        "n_matched": len(errors),
+        "n_matched": n,
         "n_truth_targets": len(per_target),
-        "height_mean_abs_error_m": sum(errors) / len(errors) if errors else None,
-        "height_max_abs_error_m": max(errors) if errors else None,
+        "height_mean_abs_error_m": score.mean_abs_error_m if n else None,
+        "height_max_abs_error_m": score.max_abs_error_m if n else None,
         "heights_vs_truth": per_target,
     }
 
@@ -366,7 +361,7 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
                 within += 1
                 inside += int(in_fov)
     run.write_csv("shadows.csv", ("t_s", "target_id", "within_range", "in_fov", "settled"), rows)
-    heights = score_heights(estimated, truth_targets)
+    heights = _height_summary(estimated, truth_targets)
     return {
         **heights,
         "min_clearance_m": min_clear,

@@ -18,6 +18,8 @@ from typing import Any
 
 from tqdm import tqdm
 
+from planner.report import generate_report
+
 
 def register(subparsers: Any) -> None:
     """Add the ``sim`` subcommand."""
@@ -57,13 +59,9 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if bar is not None:
             bar.close()
-    try:
-        from planner.report import write_report
-
-        write_report(Path(args.out))
-    except ImportError:
-        pass
+    report = generate_report(Path(args.out))
     print(format_summary(dry.summary, Path(args.out)))
+    print(f"report: {report}")
     return 0 if dry.summary.get("status") == "completed" else 1
 
 
