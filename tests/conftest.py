@@ -1,6 +1,16 @@
-"""Shared fixtures: the ../shared folder and a seeded random generator."""
+"""Shared fixtures: the ../shared folder and a seeded random generator.
+
+The whole test session speaks MAVLink 2: pymavlink's ``mavutil`` picks its dialect module
+when first imported and some of its helpers (``mavwp``) re-read the MAVLINK20 variable
+later, so the variable is set here, before any test module imports pymavlink, and never
+changed afterwards.
+"""
 
 from __future__ import annotations
+
+import os
+
+os.environ["MAVLINK20"] = "1"
 
 from pathlib import Path
 

@@ -40,8 +40,10 @@ def test_commanded_depth_never_leaves_the_envelope(clearance, depth_limit, seabe
 
 def test_clamps_name_the_limit():
     limits = SafetyLimits(min_clearance_m=1.0, depth_limit_m=20.0)
-    assert safe_depth_for_altitude(0.3, seabed_depth_m=10.0, seabed_std_m=0.0, limits=limits).clamped_by == "clearance"
-    assert safe_depth_for_altitude(1.0, seabed_depth_m=40.0, seabed_std_m=0.0, limits=limits).clamped_by == "depth limit"
+    low = safe_depth_for_altitude(0.3, seabed_depth_m=10.0, seabed_std_m=0.0, limits=limits)
+    assert low.clamped_by == "clearance" and low.depth_m == pytest.approx(9.0)
+    deep = safe_depth_for_altitude(1.0, seabed_depth_m=40.0, seabed_std_m=0.0, limits=limits)
+    assert deep.clamped_by == "depth limit" and deep.depth_m == pytest.approx(20.0)
     assert clamp_depth(-2.0, seabed_depth_m=None, limits=limits).clamped_by == "surface"
     ok = safe_depth_for_altitude(2.0, seabed_depth_m=10.0, seabed_std_m=0.01, limits=limits)
     assert ok.clamped_by is None and ok.depth_m == pytest.approx(8.0)

@@ -8,18 +8,15 @@ lockstep participant, so simulated time passes only while the test waits.
 from __future__ import annotations
 
 import collections
-import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
-os.environ["MAVLINK20"] = "1"  # mavutil picks the dialect's wire version from this
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as M  # MAVLink 2 messages
 
-from pymavlink import mavutil  # noqa: E402
-from pymavlink.dialects.v20 import ardupilotmega as M  # noqa: E402  (MAVLink 2 messages)
-
-from sim_harness.clock import SimClock  # noqa: E402
-from sim_harness.vehicle_sim import VehicleSimulator  # noqa: E402
+from sim_harness.clock import SimClock
+from sim_harness.vehicle_sim import VehicleSimulator
 
 STEP_S = 0.02
 HEARTBEAT_PERIOD_S = 1.0

@@ -2,17 +2,14 @@
 
 from __future__ import annotations
 
-import os
 import socket
 import threading
 
 import pytest
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as M  # MAVLink 2 messages
 
-os.environ["MAVLINK20"] = "1"
-from pymavlink import mavutil  # noqa: E402
-from pymavlink.dialects.v20 import ardupilotmega as M  # noqa: E402  (MAVLink 2 messages)
-
-from planner.cli import main  # noqa: E402
+from planner.cli import main
 
 #: Wall-clock limits for this real-time test (the command runs paced, not in lockstep).
 WAIT_WALL_S = 10.0
