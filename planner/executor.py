@@ -248,12 +248,9 @@ class MissionExecutor:
             self._preflight()
             self._enter("ARM")
             self._arm()
-            self._enter("DESCEND")
-            self._descend(passes[0])
             for k, pass_ in enumerate(passes):
-                if k > 0:
-                    self._enter("ALTITUDE_CHANGE")
-                    self._change_altitude(pass_)
+                self._enter("DESCEND" if k == 0 else "ALTITUDE_CHANGE")
+                self._to_pass_start(pass_)
                 self._enter(f"PASS_{k + 1}")
                 self._fly_pass(pass_)
             self._enter("FINISH")
@@ -350,20 +347,9 @@ class MissionExecutor:
         self._command(f"WPNAV_SPEED {speed_cm_s} cm/s", lambda: self.client.set_parameter("WPNAV_SPEED", speed_cm_s))
         self._command("mode GUIDED", lambda: self.client.set_mode(SubMode.GUIDED))
         self._command("arm", lambda: self.client.arm())
-        first = self.plan.passes[0]
-        self._send_tilt(first.tilt_rad, force=True)
 
-    def _descend(self, pass_: SurveyPass) -> None:
-        self._pass = pass_
-        start = pass_.waypoints[0]
-        self._yaw_rad = _bearing(start, pass_.waypoints[1]) if len(pass_.waypoints) > 1 else math.nan
-        # A commanded depth change: the altitude filter must expect the vehicle to move.
-        self.onboard.filter.set_maneuvering(True)
-        self._go_to(start, pass_, state_timeout_s=self._leg_timeout(start))
-        self._settle(pass_.altitude_m, start)
-        self.onboard.filter.set_maneuvering(False)
-
-    def _change_altitude(self, pass_: SurveyPass) -> None:
+    def _to_pass_start(self, pass_: SurveyPass) -> None:
+        """DESCEND and ALTITUDE_CHANGE: go to the pass's first waypoint at its altitude, settle."""
         self._pass = pass_
         self._send_tilt(pass_.tilt_rad, force=True)
         start = pass_.waypoints[0]
