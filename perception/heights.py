@@ -30,7 +30,7 @@ from perception.measure import MeasureConfig, ShadowMeasurement, measure_pairs
 from perception.pairing import PairingConfig, pair_regions
 from perception.segmentation import SegmentationConfig, segment
 from perception.solver import HeightEstimate, ShadowObservation, solve_height
-from perception.tracking import Detection, TargetTracker, TrackingConfig, seabed_position
+from perception.tracking import Detection, TargetTracker, TrackingConfig, seabed_centre, seabed_position
 
 
 @dataclass(frozen=True)
@@ -52,6 +52,12 @@ class HeightsConfig:
         it. Right when the sonar moves vertically over a flat seabed (the ``heights``
         command's setting): one altitude is then common to all targets, and Eq. 2's
         poor conditioning is paid once, averaged over the targets, instead of per target.
+    outlier_sigmas, outlier_floor_m, outlier_floor_fraction : float
+        When at least four of a target's complete shadows carry a one-frame height
+        (frames with an absolute altitude, :func:`perception.tracking.seabed_centre`),
+        those farther from their median than ``max(outlier_sigmas * 1.4826 * MAD,
+        outlier_floor_m + outlier_floor_fraction * median)`` are left out of the solve
+        (a shadow measured on one or two beams of a target split in that frame).
     """
 
     segmentation: SegmentationConfig = field(default_factory=SegmentationConfig)
@@ -62,10 +68,16 @@ class HeightsConfig:
     altitude_std_m: float | None = None
     delta_h_std_m: float | None = None
     shared_altitude: bool = True
+    outlier_sigmas: float = 4.0
+    outlier_floor_m: float = 0.002
+    outlier_floor_fraction: float = 0.05
 
     def __post_init__(self) -> None:
         if self.min_frames < 1:
             raise ValueError(f"min_frames must be >= 1, got {self.min_frames}")
+        for name in ("outlier_sigmas", "outlier_floor_m", "outlier_floor_fraction"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
 
 
 def detect_shadows(
@@ -138,7 +150,8 @@ class TargetHeight:
         Slant ranges of the shadow start (far top edge) and end in that frame, m (NaN
         when that frame's shadow was truncated).
     north_m, east_m : float
-        Seabed position of the far top edge, m (NaN without pose).
+        Estimated seabed position of the target's centre, m: the weighted mean over all
+        its frames (:mod:`perception.tracking`); NaN without pose.
     height_m, height_std_m : float or None
         Height above the seabed and its 1-sigma, m; None when not solvable (``reason``).
         The sigma combines the solver's (from the range noise) with the RMS of the
@@ -245,6 +258,14 @@ class HeightPipeline:
                 east_m=frame.east_m,
                 heading_rad=frame.heading_rad,
             )
+            centre = seabed_centre(
+                m,
+                altitude_m=altitude,
+                north_m=frame.north_m,
+                east_m=frame.east_m,
+                heading_rad=frame.heading_rad,
+                config=self.config.tracking,
+            )
             detections.append(
                 Detection(
                     frame_index=self._n_frames,
@@ -253,6 +274,10 @@ class HeightPipeline:
                     delta_h_m=delta,
                     north_m=north,
                     east_m=east,
+                    centre_north_m=centre.north_m,
+                    centre_east_m=centre.east_m,
+                    gate_m=centre.gate_m,
+                    height_guess_m=centre.height_guess_m,
                 )
             )
         ids = self._tracker.update(detections)
@@ -271,7 +296,10 @@ class HeightPipeline:
         """Every target so far with its height (or the reason there is none)."""
         tracks = self._tracker.tracks
         shared = self.shared_reference_altitude() if self.config.shared_altitude else None
-        return [self._solve(track.track_id, track.detections, shared) for track in tracks]
+        return [
+            self._solve(track.track_id, track.detections, shared, track.position_m()[:2])
+            for track in tracks
+        ]
 
     def shared_reference_altitude(self) -> tuple[float, float] | None:
         """The first frame's altitude and its 1-sigma, m, solved from all targets together.
@@ -309,11 +337,15 @@ class HeightPipeline:
         return mean, std
 
     def _solve(
-        self, target_id: int, detections: list[Detection], shared: tuple[float, float] | None
+        self,
+        target_id: int,
+        detections: list[Detection],
+        shared: tuple[float, float] | None,
+        position_m: tuple[float, float] = (math.nan, math.nan),
     ) -> TargetHeight:
         cfg = self.config
         first = min(detections, key=lambda d: d.frame_index)
-        usable = [d for d in detections if d.measurement.usable]
+        usable = self._without_outliers([d for d in detections if d.measurement.usable])
         height: float | None = None
         std: float | None = None
         ref: float | None = None
@@ -337,14 +369,16 @@ class HeightPipeline:
                 # target's shadow-casting point moves with the viewpoint) widen the sigma.
                 std = math.hypot(estimate.height_std_m, rms)
         m = first.measurement
+        if not all(math.isfinite(v) for v in position_m):
+            position_m = (first.north_m, first.east_m)
         return TargetHeight(
             target_id=target_id,
             first_frame_index=first.frame_index,
             azimuth_rad=m.azimuth_rad,
             range_m=m.r_top_m,
             shadow_end_m=m.r_end_m,
-            north_m=first.north_m,
-            east_m=first.east_m,
+            north_m=position_m[0],
+            east_m=position_m[1],
             height_m=height,
             height_std_m=std,
             ref_altitude_m=ref,
@@ -354,6 +388,18 @@ class HeightPipeline:
             reason=reason,
             detections=tuple(detections),
         )
+
+    def _without_outliers(self, usable: list[Detection]) -> list[Detection]:
+        """``usable`` without the frames whose one-frame height is an outlier (config)."""
+        cfg = self.config
+        guesses = np.array([d.height_guess_m for d in usable])
+        finite = np.isfinite(guesses)
+        if np.count_nonzero(finite) < 4:
+            return usable
+        median = float(np.median(guesses[finite]))
+        mad = float(np.median(np.abs(guesses[finite] - median)))
+        limit = max(cfg.outlier_sigmas * 1.4826 * mad, cfg.outlier_floor_m + cfg.outlier_floor_fraction * median)
+        return [d for d, g in zip(usable, guesses, strict=True) if not abs(g - median) > limit]
 
     def _height_of(
         self, usable: list[Detection], shared: tuple[float, float] | None

@@ -245,7 +245,7 @@ class OnboardPerception:
         return self.heights.targets()
 
     def mapped_targets(self) -> list[MappedTarget]:
-        """Targets placed on the map (positions of the far top edge)."""
+        """Targets placed on the map (at their estimated centres)."""
         out = []
         for t in self.targets():
             if not (math.isfinite(t.north_m) and math.isfinite(t.east_m)):

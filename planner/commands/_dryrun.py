@@ -285,9 +285,9 @@ def run_dry_dive(
     return DryRun(Path(out_dir), plan, result, summary, sim)
 
 
-def _height_summary(estimated: Any, truth_targets: Any, *, radius_m: float = 0.35) -> dict[str, Any]:
+def _height_summary(estimated: Any, truth_targets: Any, *, radius_m: float = 0.25) -> dict[str, Any]:
     """Heights against truth for summary.json (one-to-one matching by seabed position:
-    estimates sit at the target's far top edge, so within ``radius_m`` of its centre)."""
+    each estimate sits at the target's estimated centre, within ``radius_m`` of the true one)."""
     score = score_heights(list(estimated), list(truth_targets), radius_m=radius_m)
     per_target = []
     for k, t in enumerate(truth_targets):

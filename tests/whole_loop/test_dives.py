@@ -53,7 +53,8 @@ def test_nominal_dive_completes_safely(nominal: DryRun):
                       "COMPLETED"]
     _assert_safe(nominal)
     # Both passes flown at their planned altitudes (truth, while on the lanes).
-    track = list(csv.DictReader((nominal.out_dir / "truth_track.csv").open()))
+    with (nominal.out_dir / "truth_track.csv").open(newline="") as handle:
+        track = list(csv.DictReader(handle))
     for k, pass_ in enumerate(nominal.plan.passes):
         start = next(s["t_s"] for s in nominal.summary["states"] if s["state"] == f"PASS_{k + 1}")
         end = next(s["t_s"] for s in nominal.summary["states"] if s["t_s"] > start)
@@ -137,3 +138,25 @@ def test_current_and_disturbances(tmp_path):
     assert dry.summary["status"] == "completed", dry.summary["reason"]
     _assert_safe(dry)
     assert math.isfinite(dry.summary["min_clearance_m"])
+
+
+def _tilt_sign_changes_per_min(run_dir: Path) -> float:
+    with (run_dir / "tilt.csv").open(newline="") as handle:
+        rows = [r for r in csv.DictReader(handle) if r["tilt_cmd_deg"]]
+    t = [float(r["t_s"]) for r in rows]
+    tilt = [float(r["tilt_cmd_deg"]) for r in rows]
+    steps = [b - a for a, b in zip(tilt, tilt[1:], strict=False) if abs(b - a) > 0.05]
+    changes = sum(1 for a, b in zip(steps, steps[1:], strict=False) if a * b < 0)
+    return changes / ((t[-1] - t[0]) / 60.0)
+
+
+@pytest.mark.slow
+def test_pitch_loop_against_fixed_tilt(nominal: DryRun, tmp_path):
+    """The closed pitch loop keeps more shadows wholly in view than the plan's fixed tilt,
+    without limit cycling (the tilt reverses a bounded number of times per minute)."""
+    fixed = _dive(tmp_path, pitch_loop=False)
+    closed_ratio = nominal.summary["shadow_in_fov_ratio"]
+    fixed_ratio = fixed.summary["shadow_in_fov_ratio"]
+    assert closed_ratio >= 0.9
+    assert closed_ratio >= fixed_ratio + 0.1, (closed_ratio, fixed_ratio)
+    assert _tilt_sign_changes_per_min(nominal.out_dir) <= 40.0
