@@ -244,19 +244,31 @@ class OnboardPerception:
         """Every target so far with its height."""
         return self.heights.targets()
 
-    def mapped_targets(self) -> list[MappedTarget]:
-        """Targets placed on the map (at their estimated centres)."""
-        out = []
-        for t in self.targets():
-            if not (math.isfinite(t.north_m) and math.isfinite(t.east_m)):
+    def mapped_targets(self, *, fragment_radius_m: float = 0.08) -> list[MappedTarget]:
+        """Targets placed on the map (at their estimated centres).
+
+        A track within ``fragment_radius_m`` of a track solved from more frames is a
+        fragment of that target (a few frames the tracker could not join): it is folded
+        into the stronger one (its id listed in ``fragments``) rather than reported as a
+        second target with a weaker height.
+        """
+        placed = [t for t in self.targets() if math.isfinite(t.north_m) and math.isfinite(t.east_m)]
+        placed.sort(key=lambda t: (t.frames_used, t.frames_seen), reverse=True)
+        kept: list[tuple[TargetHeight, list[int]]] = []
+        for t in placed:
+            host = next((k for k in kept if math.hypot(k[0].north_m - t.north_m, k[0].east_m - t.east_m)
+                         <= fragment_radius_m), None)
+            if host is not None:
+                host[1].append(t.target_id)
                 continue
-            out.append(
-                MappedTarget(
-                    target_id=t.target_id, north_m=t.north_m, east_m=t.east_m,
-                    height_m=math.nan if t.height_m is None else t.height_m,
-                    height_std_m=math.nan if t.height_std_m is None else t.height_std_m,
-                    frames_used=t.frames_used,
-                    properties={"frames_seen": t.frames_seen, "reason": t.reason},
-                )
+            kept.append((t, []))
+        return [
+            MappedTarget(
+                target_id=t.target_id, north_m=t.north_m, east_m=t.east_m,
+                height_m=math.nan if t.height_m is None else t.height_m,
+                height_std_m=math.nan if t.height_std_m is None else t.height_std_m,
+                frames_used=t.frames_used,
+                properties={"frames_seen": t.frames_seen, "reason": t.reason, "fragments": fragments},
             )
-        return out
+            for t, fragments in kept
+        ]
