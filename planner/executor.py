@@ -116,6 +116,9 @@ class ExecutorConfig:
         Time allowed for the sensors to report healthy before arming, s.
     upload_mission : bool
         Upload and verify the plan as an AUTO mission in PREFLIGHT.
+    heading_tolerance_rad, turn_timeout_s : float
+        At each lane start the vehicle turns in place until its heading is this close to
+        the lane's (a forward-looking sonar must face along the lane), or the time is up.
     command_retries : int
         How many times a command (mode, arming, parameter, mission upload) that got no
         answer is sent again, each time with the link's own bounded retries; a refusal
@@ -145,6 +148,8 @@ class ExecutorConfig:
     preflight_timeout_s: float = 30.0
     upload_mission: bool = True
     command_retries: int = 3
+    heading_tolerance_rad: float = math.radians(5.0)
+    turn_timeout_s: float = 30.0
     arm_vehicle_failsafe: bool = True
 
     def __post_init__(self) -> None:
@@ -366,10 +371,29 @@ class MissionExecutor:
             # The sonar looks ahead: face along each leg (ArduSub keeps its heading otherwise).
             if math.hypot(wp.north_m - prev.north_m, wp.east_m - prev.east_m) > 0.05:
                 self._yaw_rad = _bearing(prev, wp)
+            if prev.kind == "lane_start":
+                # Turn in place before the run, so that the lead-in is flown looking ahead.
+                self._turn_at(prev, pass_)
             self._go_to(wp, pass_, state_timeout_s=self._leg_timeout(wp))
             self.result.waypoints_reached += 1
             self.run.event(self.clock.now_s(), "waypoint", f"{wp.kind} lane {wp.lane} reached", pass_=pass_.name,
                            north_m=wp.north_m, east_m=wp.east_m)
+
+    def _turn_at(self, wp: PlanWaypoint, pass_: SurveyPass) -> None:
+        """Hold ``wp`` until the heading is within ``heading_tolerance_rad`` of the leg's."""
+        cfg = self.config
+        deadline = self.clock.now_s() + cfg.turn_timeout_s
+        self._last_target_s = -math.inf
+        while True:
+            nav = self.onboard.nav
+            if nav is not None and math.isfinite(nav.heading_rad) and abs(
+                    (nav.heading_rad - self._yaw_rad + math.pi) % (2 * math.pi) - math.pi) <= cfg.heading_tolerance_rad:
+                return
+            if self.clock.now_s() > deadline:
+                self.run.event(self.clock.now_s(), "warning",
+                               f"heading not reached in {cfg.turn_timeout_s:.0f} s at lane {wp.lane}; flying on")
+                return
+            self._cycle(fly=True, target=(wp.north_m, wp.east_m), altitude_m=pass_.altitude_m)
 
     def _leg_timeout(self, wp: PlanWaypoint) -> float:
         nav = self.onboard.nav
@@ -446,6 +470,8 @@ class MissionExecutor:
             raise self._abort("vehicle_mode_change", f"the vehicle switched to {name} on its own (its failsafe or "
                               "the pilot took over)")
         if now - self.onboard.last_depth_s > cfg.telemetry_stale_s:
+            if self._link_down():
+                raise self._abort("link_lost", f"no heartbeat and no depth for {now - self.onboard.last_depth_s:.1f} s")
             raise self._abort("stale_telemetry", f"no depth for {now - self.onboard.last_depth_s:.1f} s")
         nav = self.onboard.nav
         if nav is None or now - nav.time_s > cfg.telemetry_stale_s:
@@ -487,7 +513,9 @@ class MissionExecutor:
                 or now - self._tilt_sent_s > 2.0:
             self._tilt_sent_s = now
             try:
-                self.client.set_mount_tilt(tilt_rad)
+                # In the control loop the tilt is re-sent every cycle it changes (and every
+                # 2 s): a lost ack must not hold the loop up. Pass starts wait for the ack.
+                self.client.set_mount_tilt(tilt_rad, wait_ack=force)
             except (CommandTimeout, CommandRejected) as exc:
                 # Not worth a dive: the next cycle sends the tilt again. A lost link is
                 # caught by its own callback.
@@ -550,18 +578,25 @@ class MissionExecutor:
             self.run.event(now, "command", f"hold at ({nav.north_m:.1f}, {nav.east_m:.1f}) depth {safe.depth_m:.2f} m "
                            f"({why})")
 
+    def _link_down(self) -> bool:
+        """True when the link says it is lost, or the vehicle's heartbeat has gone quiet."""
+        if self._link_lost.is_set():
+            return True
+        health = self.client.link_health()
+        return health.up is False or (health.silence_s is not None and health.silence_s > self.config.telemetry_stale_s)
+
     def _abort_action(self, action: SafeAction, exc: MissionAborted) -> None:
         """The configured action after an abort; waits (bounded) for a lost link first."""
         cfg = self.config
         if exc.reason == "no_vehicle":
             return
-        if self._link_lost.is_set():
+        if self._link_down():
             self.run.event(self.clock.now_s(), "failsafe",
                            f"link lost: the vehicle's own failsafe acts; will command '{action}' when it returns")
             deadline = self.clock.now_s() + cfg.link_restore_wait_s
-            while self._link_lost.is_set() and self.clock.now_s() < deadline:
+            while self._link_down() and self.clock.now_s() < deadline:
                 self.clock.sleep_s(cfg.control_period_s)
-            if self._link_lost.is_set():
+            if self._link_down():
                 self.result.safe_action = f"{action} (not sent: link still down)"
                 self.run.event(self.clock.now_s(), "failsafe", "link did not return; nothing more can be commanded")
                 return

@@ -263,16 +263,22 @@ class ArduSubClient(VehicleLink):
             tilt_rad, centidegrees=self.config.mount_protocol == "mount_control_centidegrees"
         )
 
-    def set_mount_tilt(self, tilt_rad: float) -> None:
-        """Point the sonar mount ``tilt_rad`` down (acknowledged command).
+    def set_mount_tilt(self, tilt_rad: float, *, wait_ack: bool = True) -> None:
+        """Point the sonar mount ``tilt_rad`` down.
 
-        The tilt is remembered and re-sent after every mode change the heartbeat shows,
-        because ArduSub puts the mount back to its default mode (RC targeting) when it
-        leaves AUTO.
+        With ``wait_ack`` (default) the COMMAND_ACK is awaited with the usual retries. A
+        control loop that re-sends the tilt every cycle passes ``wait_ack=False``: the
+        command goes out once and the loop is never held up by a lost ack (the next cycle
+        sends it again). The tilt is remembered and re-sent after every mode change the
+        heartbeat shows, because ArduSub puts the mount back to its default mode (RC
+        targeting) when it leaves AUTO.
         """
         spec = self._mount_spec(tilt_rad)
         self._set_sticky_command(spec)
-        self.send_command(spec)
+        if wait_ack:
+            self.send_command(spec)
+        else:
+            self._send(commands.command_long(spec, self._target(), self.config.target_component, 0))
 
     def send_altimeter_range(
         self, range_m: float, *, signal_quality_pct: int | None = None

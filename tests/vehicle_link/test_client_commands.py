@@ -266,6 +266,16 @@ def test_mount_tilt_is_sent_and_resent_after_every_mode_change(peer, client_fact
     assert client.stats().sticky_resends == 2
 
 
+def test_mount_tilt_without_waiting_for_the_ack(peer, client):
+    """A control loop's tilt goes out once and returns, even if never acknowledged (with
+    ``wait_ack`` the same silence raises CommandTimeout after the retries)."""
+    peer.command_script[mavlink2.MAV_CMD_DO_MOUNT_CONTROL] = [None, None, None]
+    client.set_mount_tilt(math.radians(20.0), wait_ack=False)
+    _sync(peer, client)
+    (sent,) = peer.commands(mavlink2.MAV_CMD_DO_MOUNT_CONTROL)
+    assert sent.param1 == pytest.approx(-20.0) and sent.confirmation == 0
+
+
 def test_mount_refusal_is_typed(peer, client):
     peer.command_script[mavlink2.MAV_CMD_DO_MOUNT_CONTROL] = [mavlink2.MAV_RESULT_UNSUPPORTED]
     with pytest.raises(CommandRejected) as info:
