@@ -59,35 +59,42 @@ class BoxSolid:
         """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3)."""
         axes = _local_axes(self.yaw_rad)
         o = axes @ (origin - np.array([self.north_m, self.east_m, self.base_depth_m]))
-        d = np.einsum("ij,kj->ik", directions, axes)  # no BLAS: its threads hurt here
+        x, y, z = directions[:, 0], directions[:, 1], directions[:, 2]
+        # the ray in box axes, column by column (no BLAS: its threads hurt here). The axes'
+        # zero entries add nothing, so these are bit for bit ``directions @ axes.T``.
+        cols = (x * axes[0, 0] + y * axes[0, 1], x * axes[1, 0] + y * axes[1, 1], z)
         half = (self.length_m / 2, self.width_m / 2)
         bounds = ((-half[0], half[0]), (-half[1], half[1]), (-self.height_m, self.footing_m))
-        entry = np.full(d.shape[0], -np.inf)
-        exit_ = np.full(d.shape[0], np.inf)
-        entry_axis = np.zeros(d.shape[0], dtype=np.int8)
+        entry = exit_ = np.zeros(0)
+        entry_axis = np.zeros(directions.shape[0], dtype=np.int8)
         with np.errstate(all="ignore"):
             for axis in range(3):
-                comp = d[:, axis]
+                comp = cols[axis]
                 # a zero component: treat as tiny, so the slab is all or nothing
                 inv = 1.0 / np.where(comp == 0.0, 1e-300, comp)
                 lo, hi = bounds[axis]
                 t1 = (lo - o[axis]) * inv
                 t2 = (hi - o[axis]) * inv
                 near = np.minimum(t1, t2)
-                np.minimum(exit_, np.maximum(t1, t2), out=exit_)
+                far = np.maximum(t1, t2)
+                if axis == 0:  # the first slab sets the interval
+                    entry, exit_ = near, far
+                    continue
+                np.minimum(exit_, far, out=exit_)
                 later = near > entry
-                entry = np.where(later, near, entry)
+                np.copyto(entry, near, where=later)
                 entry_axis[later] = axis
         hit = (entry <= exit_) & (entry > 0)
         t = np.where(hit, entry, _NO_HIT)
         if not normals:
             return t, np.zeros((0, 3))
-        normal = np.zeros_like(d)
+        normal = np.zeros_like(directions)
         idx = np.nonzero(hit)[0]
         if idx.size:
             ax = entry_axis[idx]
+            d_ax = np.choose(ax, [c[idx] for c in cols])
             # the entry face's outward normal, in NED: -sign(d_axis) * (row `ax` of axes)
-            normal[idx] = -np.sign(d[idx, ax])[:, None] * axes[ax]
+            normal[idx] = -np.sign(d_ax)[:, None] * axes[ax]
         return t, normal
 
 
@@ -179,9 +186,15 @@ class EllipsoidSolid:
         axes = _local_axes(self.yaw_rad)
         scale = np.array([2.0 / self.length_m, 2.0 / self.width_m, 1.0 / self.height_m])
         o = (axes @ (origin - np.array([self.north_m, self.east_m, self.base_depth_m]))) * scale
-        d = np.einsum("ij,kj->ik", directions, axes) * scale
-        a = np.einsum("ij,ij->i", d, d)
-        b = 2.0 * np.einsum("ij,j->i", d, o)
+        # explicit column arithmetic, summed in the order numpy's 3-term einsum uses
+        # ((term 0 + term 2) + term 1), so the results are bit for bit those of einsum (the
+        # axes' zero entries add nothing)
+        x, y, z = directions[:, 0], directions[:, 1], directions[:, 2]
+        d0 = (x * axes[0, 0] + y * axes[0, 1]) * scale[0]
+        d1 = (x * axes[1, 0] + y * axes[1, 1]) * scale[1]
+        d2 = z * scale[2]
+        a = (d0 * d0 + d2 * d2) + d1 * d1
+        b = 2.0 * ((d0 * o[0] + d2 * o[2]) + d1 * o[1])
         c = float(o @ o) - 1.0
         disc = b * b - 4.0 * a * c
         t = (-b - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * a)
@@ -192,7 +205,8 @@ class EllipsoidSolid:
         normal = np.zeros_like(directions)
         idx = np.nonzero(ok)[0]
         if idx.size:
-            p = o + t[idx, None] * d[idx]
+            d = np.stack([d0[idx], d1[idx], d2[idx]], axis=1)
+            p = o + t[idx, None] * d
             grad = np.einsum("ij,jk->ik", p * scale, axes)  # gradient of |M x|^2 / 2, back in NED
             normal[idx] = grad / np.sqrt(np.einsum("ij,ij->i", grad, grad))[:, None]
         return t, normal
@@ -213,13 +227,20 @@ class CompositeSolid:
     ) -> tuple[FloatArray, FloatArray]:
         """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3)."""
         best_t = np.full(directions.shape[0], _NO_HIT)
-        best_n = np.zeros_like(directions) if normals else np.zeros((0, 3))
-        for lobe in self.lobes:
-            t, n = lobe.intersect(origin, directions, normals=normals)
+        best_lobe = np.full(directions.shape[0], -1, dtype=np.int16)
+        for i, lobe in enumerate(self.lobes):
+            t, _ = lobe.intersect(origin, directions, normals=False)
             closer = t < best_t
-            best_t = np.where(closer, t, best_t)
-            if normals:
-                best_n[closer] = n[closer]
+            np.copyto(best_t, t, where=closer)
+            best_lobe[closer] = i
+        if not normals:
+            return best_t, np.zeros((0, 3))
+        # normals only where each lobe wins (a ray's arithmetic does not depend on the others)
+        best_n = np.zeros_like(directions)
+        for i, lobe in enumerate(self.lobes):
+            idx = np.nonzero(best_lobe == i)[0]
+            if idx.size:
+                best_n[idx] = lobe.intersect(origin, directions[idx], normals=True)[1]
         return best_t, best_n
 
 

@@ -40,6 +40,15 @@ MAX_RAYS_PER_BEAM = 600
 RELIEF_STRIDE = 32
 
 
+def dot3(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``sum(a * b, axis=-1)`` over a last axis of length 3 (broadcast), without einsum.
+
+    Summed as ``(a0 b0 + a2 b2) + a1 b1``, the order of numpy's 3-term einsum, so the
+    results are bit for bit those of ``np.einsum("...j,...j->...", a, b)``.
+    """
+    return (a[..., 0] * b[..., 0] + a[..., 2] * b[..., 2]) + a[..., 1] * b[..., 1]
+
+
 @dataclass(frozen=True, eq=False)
 class PoseGeometry:
     """Per-pose constants of the seabed and ray geometry (arrays over beams)."""
@@ -103,7 +112,7 @@ class LocalSeabed:
 
     def slant_m(self, directions: FloatArray) -> FloatArray:
         """Slant range where NED unit rays (..., 3) meet the plane; ``inf`` if never, m."""
-        k = np.einsum("...j,j->...", directions, self.c_vec)
+        k = dot3(directions, self.c_vec)
         with np.errstate(divide="ignore"):
             return np.where(k > 0, self.height_m / np.where(k > 0, k, 1.0), np.inf)
 
@@ -130,7 +139,7 @@ def seabed_slant_m(world: World, geo: PoseGeometry, directions: FloatArray, *, i
     is gentle (slope <= 0.25), so a few iterations converge to well under a millimetre.
     ``inf`` for rays that never reach the plane.
     """
-    k = np.einsum("...j,j->...", directions, geo.c_vec)
+    k = dot3(directions, geo.c_vec)
     with np.errstate(divide="ignore"):
         t_plane = np.where(k > 0, geo.height_v_m / np.where(k > 0, k, 1.0), np.inf)
     relief = world.seabed.relief
@@ -244,7 +253,7 @@ def seabed_branches(
                 e_c = geo.phi + sign * np.arccos(x0)
                 d = geo.directions(beams[None, :], e_c)
                 p = geo.origin_ned + r_c[:, None, None] * d
-                k = np.einsum("...j,j->...", d, geo.c_vec)
+                k = dot3(d, geo.c_vec)
                 h = relief.height_m(p[..., 0], p[..., 1])
                 corr = np.where(k > 1e-6, h / np.maximum(k, 1e-6), 0.0)
             gn_r, ge_r = relief.gradient(p[..., 0], p[..., 1])
@@ -357,7 +366,7 @@ def cast_target(
     d = geo.directions(beams[:, None], elevation[None, :])
     flat_d = d.reshape(-1, 3)
     t, normal = placed.solid.intersect(geo.origin_ned, flat_d)
-    cos_inc = -np.einsum("ij,ij->i", normal, flat_d)
+    cos_inc = -dot3(normal, flat_d)
     shape = (j1 - j0, k1 - k0)
     t = t.reshape(shape)
     seabed = local_seabed(world, geo, placed)

@@ -213,11 +213,26 @@ def _spread(c_from: np.ndarray, c_to: np.ndarray, weight: FloatArray) -> tuple[n
     return seg, cell, (weight / n)[seg]
 
 
+@dataclass(frozen=True, eq=False)
+class TargetPower:
+    """Target echo with gain on a stretch of the flat image: ``power`` (float64) holds flat
+    indices ``first_cell .. first_cell + power.size - 1``; every other cell has none."""
+
+    first_cell: int
+    power: FloatArray
+
+    def add_to(self, image: np.ndarray) -> None:
+        """Add the echo into the C-contiguous (n_samples, n_beams) float32 ``image``, in place
+        (summed in float64, rounded once to float32)."""
+        part = image.reshape(-1)[self.first_cell:self.first_cell + self.power.size]
+        np.add(part, self.power, out=part, casting="unsafe")
+
+
 def target_echo(
     world: World, casts: list[TargetCast], batch: RayBatch, runs: Runs, sp: Sampling
-) -> tuple[FloatArray, np.ndarray, np.ndarray]:
-    """Echo of the visible target hits, with gain, shape (n_samples, n_beams), float64; the
-    highlight mask; the owner image (1-based cast index, nearest wins), uint8.
+) -> tuple[TargetPower, np.ndarray, np.ndarray]:
+    """Echo of the visible target hits, with gain (:class:`TargetPower`); the highlight mask,
+    shape (n_samples, n_beams); the owner image (1-based cast index, nearest wins), uint8.
 
     A hit is visible when its target is the nearest along the ray and it lies inside the
     aperture. Each ray stands for its elevation step: its echo is spread uniformly over the
@@ -228,7 +243,7 @@ def target_echo(
     n_s, n_b = sp.n_samples, sp.n_beams
     owner = np.zeros(n_s * n_b, dtype=np.uint8)
     if not casts:
-        return np.zeros((n_s, n_b)), np.zeros((n_s, n_b), dtype=bool), owner.reshape(n_s, n_b)
+        return TargetPower(0, np.zeros(0)), np.zeros((n_s, n_b), dtype=bool), owner.reshape(n_s, n_b)
     # the nearest target along every ray of the global (beam x elevation step) grid
     k_lo = min(c.k0 for c in casts)
     k_hi = max(c.k0 + c.elevation_rad.size for c in casts)
@@ -281,12 +296,14 @@ def target_echo(
     seg, cell, w = seg[keep], cell[keep], w[keep]
     ray = rays[seg]
     flat = cell * n_b + batch.beam[ray]
-    power = np.bincount(flat, weights=w * sp.row_gain[cell, 0], minlength=n_s * n_b)
+    # only the flat range the hits touch: the rest of the image gets no target echo
+    first_cell = int(flat.min()) if flat.size else 0
+    power = np.bincount(flat - first_cell, weights=w * sp.row_gain[cell, 0])
     far_first = np.argsort(-batch.target[ray], kind="stable")  # nearer targets overwrite
     owner[flat[far_first]] = (batch.target[ray[far_first]] + 1).astype(np.uint8)
     highlight = np.zeros(n_s * n_b, dtype=bool)
     highlight[flat] = True
-    return power.reshape(n_s, n_b), highlight.reshape(n_s, n_b), owner.reshape(n_s, n_b)
+    return TargetPower(first_cell, power), highlight.reshape(n_s, n_b), owner.reshape(n_s, n_b)
 
 
 def _interval_cells(
