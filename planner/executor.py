@@ -116,6 +116,9 @@ class ExecutorConfig:
         Time allowed for the sensors to report healthy before arming, s.
     upload_mission : bool
         Upload and verify the plan as an AUTO mission in PREFLIGHT.
+    max_seabed_std_m : float
+        No new depth target is derived from a seabed estimate less certain than this (m,
+        1-sigma); the vehicle keeps its last one meanwhile.
     heading_tolerance_rad, turn_timeout_s : float
         At each lane start the vehicle turns in place until its heading is this close to
         the lane's (a forward-looking sonar must face along the lane), or the time is up.
@@ -149,6 +152,7 @@ class ExecutorConfig:
     upload_mission: bool = True
     command_retries: int = 3
     heading_tolerance_rad: float = math.radians(5.0)
+    max_seabed_std_m: float = 0.3
     turn_timeout_s: float = 30.0
     arm_vehicle_failsafe: bool = True
 
@@ -356,6 +360,7 @@ class MissionExecutor:
     def _to_pass_start(self, pass_: SurveyPass) -> None:
         """DESCEND and ALTITUDE_CHANGE: go to the pass's first waypoint at its altitude, settle."""
         self._pass = pass_
+        self.onboard.mosaic_enabled = False
         self._send_tilt(pass_.tilt_rad, force=True)
         start = pass_.waypoints[0]
         self._yaw_rad = _bearing(start, pass_.waypoints[1]) if len(pass_.waypoints) > 1 else math.nan
@@ -371,10 +376,13 @@ class MissionExecutor:
             # The sonar looks ahead: face along each leg (ArduSub keeps its heading otherwise).
             if math.hypot(wp.north_m - prev.north_m, wp.east_m - prev.east_m) > 0.05:
                 self._yaw_rad = _bearing(prev, wp)
-            if prev.kind == "lane_start":
+            run = prev.kind == "lane_start"
+            if run:
                 # Turn in place before the run, so that the lead-in is flown looking ahead.
                 self._turn_at(prev, pass_)
+            self.onboard.mosaic_enabled = run
             self._go_to(wp, pass_, state_timeout_s=self._leg_timeout(wp))
+            self.onboard.mosaic_enabled = False
             self.result.waypoints_reached += 1
             self.run.event(self.clock.now_s(), "waypoint", f"{wp.kind} lane {wp.lane} reached", pass_=pass_.name,
                            north_m=wp.north_m, east_m=wp.east_m)
@@ -488,9 +496,10 @@ class MissionExecutor:
 
     def _send_target(self, now: float, target: tuple[float, float], altitude_m: float) -> None:
         seabed, seabed_std = self.onboard.seabed_depth(now)
-        if not (math.isfinite(seabed) and math.isfinite(seabed_std)):
-            # No estimate right now (a gap in telemetry): the vehicle keeps its last target;
-            # the staleness checks abort if the gap lasts.
+        if not (math.isfinite(seabed) and math.isfinite(seabed_std)) or seabed_std > self.config.max_seabed_std_m:
+            # No usable estimate right now (a gap in telemetry, or the filter just re-set
+            # after a jump): the vehicle keeps its last target; the staleness and settle
+            # checks abort if this lasts.
             return
         try:
             cmd = safe_depth_for_altitude(altitude_m, seabed_depth_m=seabed, seabed_std_m=seabed_std,
@@ -604,7 +613,7 @@ class MissionExecutor:
         try:
             self.onboard.drain()
             self._safe_action(action, f"abort: {exc.reason}")
-        except (MissionAborted, VehicleLinkError, ValueError) as again:
+        except (MissionAborted, SafetyViolation, VehicleLinkError, ValueError) as again:
             self.result.safe_action = f"{action} (failed: {again})"
             self.run.event(self.clock.now_s(), "failsafe", f"safe action failed: {again}")
 

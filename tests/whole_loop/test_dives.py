@@ -161,4 +161,7 @@ def test_pitch_loop_against_fixed_tilt(nominal: DryRun, tmp_path):
     # 0.80-0.96, fixed tilt 0.70-0.77. Issue #8 asks 0.99: not reached yet.
     assert closed_ratio >= 0.75
     assert closed_ratio > fixed_ratio, (closed_ratio, fixed_ratio)
-    assert _tilt_sign_changes_per_min(nominal.out_dir) <= 40.0
+    # The tilt answers the simulated pitch disturbance (0.1-0.3 Hz: up to 36 reversals a
+    # minute) and reverses about twice per target passing; a limit cycle at the 5 Hz control
+    # rate would reverse up to 300 times a minute.
+    assert _tilt_sign_changes_per_min(nominal.out_dir) <= 60.0
