@@ -30,6 +30,16 @@ def _local_axes(yaw_rad: float) -> FloatArray:
     return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def _box_corners(north_m: float, east_m: float, base_depth_m: float, yaw_rad: float, length_m: float,
+                 width_m: float, z_top_m: float, z_bottom_m: float) -> FloatArray:
+    """The 8 corners, shape (8, 3), NED m, of a yawed box from ``z_top_m`` to ``z_bottom_m``
+    (depths relative to the base, positive down)."""
+    hl, hw = length_m / 2, width_m / 2
+    local = np.array([[u, v, z] for u in (-hl, hl) for v in (-hw, hw) for z in (z_top_m, z_bottom_m)],
+                     dtype=np.float64)
+    return local @ _local_axes(yaw_rad) + np.array([north_m, east_m, base_depth_m])
+
+
 @dataclass(frozen=True)
 class BoxSolid:
     """A box: ``length_m`` along the yaw axis, ``width_m`` across, top ``height_m`` above base."""
@@ -45,13 +55,8 @@ class BoxSolid:
 
     def corners_ned(self) -> FloatArray:
         """The 8 corners, shape (8, 3), NED m."""
-        axes = _local_axes(self.yaw_rad)
-        hl, hw = self.length_m / 2, self.width_m / 2
-        z0, z1 = -self.height_m, self.footing_m
-        local = np.array(
-            [[u, v, z] for u in (-hl, hl) for v in (-hw, hw) for z in (z0, z1)], dtype=np.float64
-        )
-        return local @ axes + np.array([self.north_m, self.east_m, self.base_depth_m])
+        return _box_corners(self.north_m, self.east_m, self.base_depth_m, self.yaw_rad,
+                            self.length_m, self.width_m, -self.height_m, self.footing_m)
 
     def intersect(
         self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
@@ -172,12 +177,8 @@ class EllipsoidSolid:
 
     def corners_ned(self) -> FloatArray:
         """Corners of the bounding box of the upper half (plus a little below), NED m."""
-        axes = _local_axes(self.yaw_rad)
-        hl, hw = self.length_m / 2, self.width_m / 2
-        local = np.array(
-            [[u, v, z] for u in (-hl, hl) for v in (-hw, hw) for z in (-self.height_m, 0.5 * self.height_m)]
-        )
-        return local @ axes + np.array([self.north_m, self.east_m, self.base_depth_m])
+        return _box_corners(self.north_m, self.east_m, self.base_depth_m, self.yaw_rad,
+                            self.length_m, self.width_m, -self.height_m, 0.5 * self.height_m)
 
     def intersect(
         self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
