@@ -18,6 +18,7 @@ from dataclasses import replace
 import cv2
 
 from sim_harness.scene import Scene, load_scene
+from sim_harness.seabed_texture import SeabedTexture
 from sim_harness.sonar import SonarConfig, SonarPose, SonarRenderer
 from sim_harness.viewpoint import scene_pose
 from sim_harness.world import Seabed, World
@@ -37,15 +38,29 @@ def _measure(renderer: SonarRenderer, pose: SonarPose, frames: int) -> tuple[flo
     return frames / best_wall, frames / best_cpu, len(truth.targets)
 
 
+def _with_texture(world: World, texture: SeabedTexture | None) -> World:
+    """The same world with another seabed texture (None: none)."""
+    return World(replace(world.seabed, texture=texture), world.targets, world.materials, world.name,
+                 world.origin_lat_deg, world.origin_lon_deg)
+
+
 def _cases() -> list[tuple[str, SonarRenderer, SonarPose]]:
+    """Each scene with the seabed texture off and on (3 dB, 10 cm; `open-seabed` ships with it on)."""
+    texture = SeabedTexture(std_db=3.0, correlation_m=0.1, seed=0)
     flat = World(Seabed(10.0))
-    cases = [("flat seabed, no targets", SonarRenderer(flat), SonarPose(0.0, 0.0, 9.5, tilt_rad=math.radians(20.0)))]
+    flat_pose = SonarPose(0.0, 0.0, 9.5, tilt_rad=math.radians(20.0))
+    cases = [("flat seabed, no targets", SonarRenderer(flat), flat_pose),
+             ("flat seabed, no targets, texture on", SonarRenderer(_with_texture(flat, texture)), flat_pose)]
     for name in ("paper-tank", "open-seabed"):
         scene: Scene = load_scene(name)
         config = SonarConfig(**scene.sonar)
         altitude = scene.viewpoint.altitude_m
-        cases.append((f"`{name}` at {altitude} m", SonarRenderer(scene.world, config),
-                      scene_pose(scene, altitude, config)))
+        pose = scene_pose(scene, altitude, config)
+        shipped = scene.world.seabed.texture
+        for label, tex in (("texture off", None), ("texture on", shipped or texture)):
+            suffix = f"{label}{' (as shipped)' if tex is shipped else ''}"
+            cases.append((f"`{name}` at {altitude} m, {suffix}",
+                          SonarRenderer(_with_texture(scene.world, tex), config), pose))
     return cases
 
 

@@ -18,7 +18,15 @@ Ranges are slant ranges from the sonar's acoustic centre (range ZERO), read from
 frame's ``range_m`` axis at the fractional row, never counted from the window start.
 
 A shadow cut by the insonified band, the range window or the edge of the fan is flagged
-``truncated`` with the reason, and is not to be used for a height.
+``truncated`` with the reason, and is not to be used for a height. The band's far edge
+is judged beam by beam from the image, not from the band's estimated edge: where the
+"seabed" just after the shadow is less than ``end_contrast_db`` brighter than the shadow,
+the shadow runs on into the dark beyond the band; when that holds in most of the pair's
+beams the shadow is truncated there.
+
+On a detection grid (:mod:`perception.segmentation`) the shadow's first and last rows in
+each beam are known to the grid's row step; they are refined at full resolution here,
+only in the beams measured, before the edges are sought.
 """
 
 from __future__ import annotations
@@ -47,6 +55,10 @@ TRUNCATION_REASONS = {
 _CUTTING_FLAGS = ("first_beam", "last_beam", "window_end", "band_near", "band_far")
 
 
+#: Extra samples of the echo before a shadow's first row read for its top edge.
+EDGE_MARGIN_SAMPLES = 8
+
+
 @dataclass(frozen=True)
 class MeasureConfig:
     """Settings of :func:`measure_pair`.
@@ -64,6 +76,10 @@ class MeasureConfig:
         searched this far around the region boundaries.
     smooth_beams : int
         Beams averaged (centred, odd) into each beam's power profile.
+    end_contrast_db : float
+        The seabed just after a shadow must be this much brighter than the shadow, dB;
+        where it is not, the shadow runs on into the dark beyond the band's far edge and
+        that beam is cut (most beams cut: the shadow is truncated).
     """
 
     central_fraction: float = 0.6
@@ -71,6 +87,7 @@ class MeasureConfig:
     level_samples: int = 6
     smooth_samples: int = 5
     smooth_beams: int = 3
+    end_contrast_db: float = 6.0
 
     def __post_init__(self) -> None:
         if not 0 < self.central_fraction <= 1:
@@ -79,6 +96,8 @@ class MeasureConfig:
             raise ValueError("min_beams, level_samples and smooth_samples must be >= 1")
         if self.smooth_beams < 1 or self.smooth_beams % 2 == 0:
             raise ValueError(f"smooth_beams must be an odd integer >= 1, got {self.smooth_beams}")
+        if not self.end_contrast_db > 0:
+            raise ValueError(f"end_contrast_db must be > 0 dB, got {self.end_contrast_db}")
 
 
 @dataclass(frozen=True)
@@ -138,6 +157,11 @@ def _central(columns: tuple[int, ...], fraction: float) -> list[int]:
     return cols[start : start + keep]
 
 
+#: An empty float array shared by the results without edges (read-only).
+_NONE = np.zeros(0)
+_NONE.flags.writeable = False
+
+
 @dataclass(frozen=True)
 class _Edges:
     columns: list[int]
@@ -147,69 +171,133 @@ class _Edges:
 
 
 def _window_mean(cum: NDArray[np.float64], a: NDArray[np.intp], b: NDArray[np.intp]) -> NDArray[np.float64]:
-    """Per column j, mean of the rows [a_j, b_j) of the array whose cumulative sum is ``cum``."""
+    """Per column j, mean of the rows [a_j, b_j) of the array whose cumulative sum is ``cum``.
+
+    An empty window gives NaN (call with numpy's invalid warnings off).
+    """
     n = cum.shape[0] - 1
-    a = np.clip(a, 0, n)
-    b = np.clip(b, 0, n)
+    a = np.minimum(np.maximum(a, 0), n)
+    b = np.minimum(np.maximum(b, 0), n)
     cols = np.arange(cum.shape[1])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return (cum[b, cols] - cum[a, cols]) / (b - a)
+    return (cum[b, cols] - cum[a, cols]) / (b - a)
+
+
+def _refine_shadow_rows(
+    segmentation: Segmentation,
+    beams: NDArray[np.intp],
+    s_first: NDArray[np.intp],
+    s_last: NDArray[np.intp],
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """A shadow's first and last full-resolution row in each beam, from its grid cells.
+
+    On a detection grid of step d the shadow's first and last cells in a beam are known;
+    the grid row's sample (``d i + d // 2``) is shadow, and the run of full-resolution
+    shadow rows (``smoothed < shadow_limit``, inside the band) through it is followed to
+    its ends, which lie within the neighbouring cells.
+    """
+    d = segmentation.row_step
+    n_rows = segmentation.levels.shape[0]
+    n = beams.size
+    # Two windows of 2d rows per beam: around the first cell and around the last one.
+    starts = np.concatenate([s_first - d, s_last - d + 1])
+    both = np.concatenate([beams, beams])
+    rows = starts[None, :] + np.arange(2 * d)[:, None]
+    rows_c = np.minimum(np.maximum(rows, 0), n_rows - 1)
+    smoothed = segmentation.smoothed_windows(starts, 2 * d, both)
+    limit = np.interp(rows_c, segmentation.level_rows, segmentation.grid_shadow_limit)
+    shadow = (
+        (smoothed < limit)
+        & (rows_c >= segmentation.band_start_rows[both][None, :])
+        & (rows_c <= segmentation.band_stop_rows[both][None, :])
+        & (rows == rows_c)
+    )
+    local = np.arange(2 * d)[:, None]
+    # the sampled row of the first cell is at d + d // 2, that of the last at d // 2
+    before, has_before = _last_true(~shadow[:, :n] & (local < d + d // 2))
+    first = np.where(has_before, starts[:n] + before + 1, np.maximum(s_first - d, 0))
+    after, has_after = _first_true(~shadow[:, n:] & (local > d // 2))
+    last = np.where(has_after, starts[n:] + after - 1, np.minimum(s_last + d, n_rows - 1))
+    return first.astype(np.intp), last.astype(np.intp)
 
 
 def _edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> list[_Edges]:
     """Fractional rows of the shadow start and end in each pair's central beams.
 
-    All pairs' beams are processed together, as columns of one block of rows.
+    All pairs' beams are processed together, each beam in its own window of rows (from
+    before the target's highlight to the seabed after its shadow), as columns of one
+    block. Empty windows and dark levels give NaN and infinities, which the tests below
+    reject, so numpy's warnings about them are off here.
     """
-    n_rows, n_cols = segmentation.shadow_labels.shape
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return _edges_quiet(segmentation, pairs, cfg)
+
+
+def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> list[_Edges]:
+    """:func:`_edges` with numpy's divide and invalid warnings already off."""
+    n_rows, n_cols = segmentation.levels.shape
     half = cfg.smooth_samples // 2
     k_smooth = cfg.smooth_samples
-    parts: list[tuple[NDArray[np.intp], ...]] = []
-    far_cut = [False] * len(pairs)
+    owner_list: list[int] = []
+    beam_list: list[int] = []
+    shadow_list: list[int] = []
+    highlight_list: list[int] = []
     for n, pair in enumerate(pairs):
-        t, s = pair.highlight, pair.shadow
-        beams = np.asarray(_central(pair.columns, cfg.central_fraction), dtype=np.intp)
-        t_first_all, _, t_present = pair.highlight_extents
-        s_first_all, s_last_all, s_present = pair.shadow_extents
-        t_i = beams - t.col_start
-        s_i = beams - s.col_start
-        ok = (t_i >= 0) & (t_i < t.n_cols) & (s_i >= 0) & (s_i < s.n_cols)
-        ok[ok] &= t_present[t_i[ok]] & s_present[s_i[ok]]
-        beams, t_i, s_i = beams[ok], t_i[ok], s_i[ok]
-        s_last = s_last_all[s_i]
-        ba = s_last + 1 + k_smooth
-        bb = np.minimum(n_rows, ba + cfg.level_samples)
-        cut = (bb - ba < max(2, cfg.level_samples // 2)) | (bb - 1 > segmentation.band_stop_rows[beams])
-        far_cut[n] = bool(cut.any())
-        keep = ~cut
-        owner = np.full(int(np.count_nonzero(keep)), n, dtype=np.intp)
-        parts.append(
-            (owner, beams[keep], t_first_all[t_i][keep], s_first_all[s_i][keep], s_last[keep],
-             ba[keep], bb[keep])
-        )
-    out = [_Edges([], np.zeros(0), np.zeros(0), cut) for cut in far_cut]
-    if not parts:
+        central = _central(pair.columns, cfg.central_fraction)
+        owner_list += [n] * len(central)
+        beam_list += central
+        shadow_list += [pair.shadow.label] * len(central)
+        highlight_list += [pair.highlight.label] * len(central)
+    out = [_Edges([], _NONE, _NONE, False) for _ in pairs]
+    if not beam_list:
         return out
-    owner, beams, t_first, s_first, s_last, ba, bb = (np.concatenate(v) for v in zip(*parts, strict=True))
+    beams = np.array(beam_list, dtype=np.intp)
+    s_labels = np.array(shadow_list, dtype=np.intp)
+    t_labels = np.array(highlight_list, dtype=np.intp)
+    # The regions' first and last rows in those beams (see Segmentation.column_extents).
+    s_last = segmentation.shadow_rows[1][s_labels, beams]
+    ok = s_last >= 0
+    owner = np.array(owner_list, dtype=np.intp)[ok]
+    beams, s_labels, t_labels, s_last = beams[ok], s_labels[ok], t_labels[ok], s_last[ok]
     if beams.size == 0:
         return out
+    s_first = segmentation.shadow_rows[0][s_labels, beams]
+    # The highlight's first row (where it is in the beam) bounds the window below.
+    t_first = np.maximum(segmentation.highlight_rows[0][t_labels, beams], 0)
+    if segmentation.row_step > 1:
+        s_first, s_last = _refine_shadow_rows(segmentation, beams, s_first, s_last)
+    # The seabed just after the shadow; a beam where it lies beyond the window is cut.
+    ba = s_last + 1 + k_smooth
+    bb = np.minimum(n_rows, ba + cfg.level_samples)
+    cut = bb - ba < max(2, cfg.level_samples // 2)
+    n_beams = np.bincount(owner, minlength=len(pairs))
+    n_cut = np.bincount(owner[cut], minlength=len(pairs))
+    keep = ~cut
+    owner, beams, t_first, s_first, s_last, ba, bb = (
+        v[keep] for v in (owner, beams, t_first, s_first, s_last, ba, bb)
+    )
+    if beams.size == 0:
+        return [_Edges([], _NONE, _NONE, bool(2 * c > b)) for c, b in zip(n_cut, n_beams, strict=True)]
     # Linear power of the beams (each averaged with its neighbours), smoothed in range;
-    # p[i, c] belongs to row off + i of beam beams[c].
-    r0 = max(0, int(t_first.min()) - half)
-    r1 = min(n_rows, int(bb.max()) + k_smooth)
-    if r1 - r0 < k_smooth + 2:
-        return out
+    # beam c's window starts at row lo[c], and p[i, c] belongs to row off[c] + i.
+    # The window starts a little before the shadow (room for the target's echo level
+    # before its far top edge) and ends past the seabed window after the shadow.
+    lead = 2 * k_smooth + cfg.level_samples + 2 * segmentation.row_step + EDGE_MARGIN_SAMPLES
+    lo = np.maximum(0, np.maximum(t_first, s_first - lead) - half)
+    hi = np.minimum(n_rows, np.maximum(bb, s_last + k_smooth + 2) + k_smooth)
+    length = int((hi - lo).max())
+    if length < k_smooth + 2:
+        return [_Edges([], _NONE, _NONE, bool(2 * c > b)) for c, b in zip(n_cut, n_beams, strict=True)]
+    rows = np.minimum(lo[None, :] + np.arange(length)[:, None], n_rows - 1)
     b_half = cfg.smooth_beams // 2
-    shifts = [np.clip(beams + d, 0, n_cols - 1) for d in range(-b_half, b_half + 1)]
-    needed = np.unique(np.concatenate(shifts))
-    block = segmentation.power(slice(r0, r1), needed)
-    power = block[:, np.searchsorted(needed, shifts[0])]
-    for c in shifts[1:]:
-        power = power + block[:, np.searchsorted(needed, c)]
-    power /= len(shifts)
+    shifts = np.minimum(np.maximum((beams[None, :] + np.arange(-b_half, b_half + 1)[:, None]).ravel(), 0), n_cols - 1)
+    block = segmentation.power_take(np.tile(rows * n_cols, cfg.smooth_beams) + shifts[None, :])
+    power = block[:, : beams.size]
+    for j in range(1, cfg.smooth_beams):
+        power = power + block[:, j * beams.size : (j + 1) * beams.size]
+    power *= 1.0 / cfg.smooth_beams
     cum = np.concatenate([np.zeros((1, power.shape[1])), np.cumsum(power, axis=0)])
     p = (cum[k_smooth:] - cum[:-k_smooth]) / k_smooth
-    off = r0 + half
+    off = lo + half
     cum_p = np.concatenate([np.zeros((1, p.shape[1])), np.cumsum(p, axis=0)])
     idx = np.arange(p.shape[0])[:, None]
     cols = np.arange(p.shape[1])
@@ -220,13 +308,20 @@ def _edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig
     sb = np.where(short, s_last + 1, sb)
     shadow_level = _window_mean(cum_p, sa - off, sb - off)
     seabed_level = _window_mean(cum_p, ba - off, bb - off)
+    # Where the "seabed" after the shadow is hardly brighter than the shadow, the shadow
+    # runs on into the dark beyond the band's far edge: cut there.
+    seabed_db = 10.0 * np.log10(seabed_level)
+    contrast_db = seabed_db - 10.0 * np.log10(shadow_level)
+    beyond = ~(contrast_db >= cfg.end_contrast_db)
+    # A shadow cut by the far edge is cut across its width: most of its beams.
+    n_cut = n_cut + np.bincount(owner[beyond], minlength=len(pairs))
+    out = [_Edges([], _NONE, _NONE, bool(2 * c > b)) for c, b in zip(n_cut, n_beams, strict=True)]
     # The target's echo just before its far top edge (which may be weaker than the
     # highlight's brightest part, e.g. a top seen at grazing incidence): find the edge
     # roughly as the last sample above the dB-midpoint of shadow and seabed, then take
     # the echo level a smoothing width before it.
     core = np.minimum(s_first + k_smooth, s_last) - off
-    with np.errstate(invalid="ignore"):
-        rough_level = np.sqrt(shadow_level * seabed_level)
+    rough_level = np.sqrt(shadow_level * seabed_level)
     rough, has_rough = _last_true((p >= rough_level) & (idx <= core))
     hb = rough - k_smooth
     echo_level = _window_mean(cum_p, np.maximum(0, hb - cfg.level_samples), np.maximum(1, hb))
@@ -234,25 +329,24 @@ def _edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig
     k_top, has_top = _last_true((p >= mid_top) & (idx < core))
     k_next = np.minimum(k_top + 1, p.shape[0] - 1)
     a_top, b_top = p[k_top, cols], p[k_next, cols]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        top = k_top + (a_top - mid_top) / (a_top - b_top)
+    top = k_top + (a_top - mid_top) / (a_top - b_top)
     has_top &= b_top < mid_top
     mid_end = 0.5 * (shadow_level + seabed_level)
     start = np.maximum(np.maximum(s_first, (s_first + s_last) // 2) - off, 1)
     stop = s_last + k_smooth + 2 - off
     k_end, has_end = _first_true((p >= mid_end) & (idx >= start) & (idx < stop))
     a_end, b_end = p[k_end - 1, cols], p[k_end, cols]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        end = (k_end - 1) + (mid_end - a_end) / (b_end - a_end)
+    end = (k_end - 1) + (mid_end - a_end) / (b_end - a_end)
     has_end &= (k_end >= 1) & (a_end < mid_end)
-    with np.errstate(invalid="ignore"):
-        good = (
-            (shadow_level < seabed_level) & has_rough & (echo_level > shadow_level)
-            & has_top & has_end & (end > top)
-        )
+    good = (
+        (shadow_level < seabed_level) & has_rough & (echo_level > shadow_level)
+        & has_top & has_end & (end > top) & ~beyond
+    )
+    top = top + off
+    end = end + off
     for n in range(len(pairs)):
         mine = good & (owner == n)
-        out[n] = _Edges([int(b) for b in beams[mine]], top[mine] + off, end[mine] + off, far_cut[n])
+        out[n] = _Edges([int(b) for b in beams[mine]], top[mine], end[mine], out[n].far_cut)
     return out
 
 
@@ -312,10 +406,12 @@ def _measurement(
 ) -> ShadowMeasurement:
     """Combine one pair's per-beam edges into its measurement."""
     cfg = config
-    n_rows = segmentation.shadow_labels.shape[0]
+    n_rows = segmentation.levels.shape[0]
     rows_axis = np.arange(n_rows, dtype=np.float64)
     t, s = pair.highlight, pair.shadow
-    cutting = [f for f in pair.fov_flags if f in _CUTTING_FLAGS]
+    # Whether the far edge of the band cuts the shadow is decided beam by beam from the
+    # seabed after it (``edges.far_cut``), not from the band's estimated edge.
+    cutting = [f for f in pair.fov_flags if f in _CUTTING_FLAGS and f != "band_far"]
     far_cut = edges.far_cut
     used = edges.columns
     tops = edges.tops

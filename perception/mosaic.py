@@ -11,6 +11,12 @@ fan, mid ranges, and steeper grazing angles. Samples outside the beam, outside t
 and under an exclusion mask (shadows from the segmentation) carry no weight, so they
 never darken the average.
 
+A second polar mask marks samples that belong in the map but not in the drift
+registration: the echoes of raised targets, whose place on the seabed plane depends on
+the view (layover), so two passes from opposite sides disagree about them by
+``2 H h / g`` (height ``h``, altitude ``H``, ground range ``g``) -- 15 cm for a 15 cm
+target seen from 1 m. :attr:`ProjectedFrame.reliable` carries the cells left to register.
+
 The mosaic grid is anchored to the survey's local NED origin: cell ``(i, j)`` of tile
 ``(ti, tj)`` covers north ``[(ti*T + i) * res, (ti*T + i + 1) * res)`` and likewise east,
 with ``T`` the tile size in cells. Tiles are created where frames fall; adding a frame
@@ -136,12 +142,15 @@ class ProjectedFrame:
 
     ``row0``/``col0`` are the global cell indices (north, east) of element ``[0, 0]``;
     ``intensity`` and ``weight`` have shape (n_north, n_east), rows increasing north.
+    ``reliable`` (bool, same shape) marks the weighted cells that show the seabed itself
+    (not a raised target's echo): the ones drift registration may use.
     """
 
     row0: int
     col0: int
     intensity: np.ndarray
     weight: np.ndarray
+    reliable: np.ndarray
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -180,12 +189,24 @@ def _footprint_bounds(
     )
 
 
+def _power(x: np.ndarray, exponent: float) -> np.ndarray:
+    """``x ** exponent`` with the common exponents (1, 0.5, 2) done without ``pow``."""
+    if exponent == 1.0:
+        return x
+    if exponent == 0.5:
+        return np.sqrt(x)
+    if exponent == 2.0:
+        return x * x
+    return np.power(x, np.float32(exponent))
+
+
 def project_frame(
     frame: SonarFrame,
     placement: SonarPlacement,
     *,
     config: MosaicConfig,
     exclude_mask: np.ndarray | None = None,
+    unreliable_mask: np.ndarray | None = None,
 ) -> ProjectedFrame | None:
     """Project one polar frame onto the seabed grid.
 
@@ -199,6 +220,9 @@ def project_frame(
         Grid and weighting.
     exclude_mask : ndarray of bool, shape (n_samples, n_beams), optional
         Polar samples to leave out of the average (e.g. shadows); True = leave out.
+    unreliable_mask : ndarray of bool, shape (n_samples, n_beams), optional
+        Polar samples kept in the average but not in :attr:`ProjectedFrame.reliable`
+        (raised targets' echoes, placed by layover); True = not for registration.
 
     Returns
     -------
@@ -207,8 +231,9 @@ def project_frame(
     """
     if placement.altitude_m <= 0:
         raise GeometryError(f"sonar altitude must be > 0 m, got {placement.altitude_m:.3f}")
-    if exclude_mask is not None and exclude_mask.shape != frame.image.shape:
-        raise ValueError(f"exclude_mask shape {exclude_mask.shape} != image shape {frame.image.shape}")
+    for name, mask in (("exclude_mask", exclude_mask), ("unreliable_mask", unreliable_mask)):
+        if mask is not None and mask.shape != frame.image.shape:
+            raise ValueError(f"{name} shape {mask.shape} != image shape {frame.image.shape}")
     rot = sonar_to_ned(
         tilt_rad=placement.tilt_rad,
         pitch_rad=placement.pitch_rad,
@@ -223,49 +248,69 @@ def project_frame(
     row1 = math.ceil(bounds[1] / res)
     col0 = math.floor(bounds[2] / res)
     col1 = math.ceil(bounds[3] / res)
-    north = (np.arange(row0, row1, dtype=np.float64) + 0.5) * res - placement.north_m
-    east = (np.arange(col0, col1, dtype=np.float64) + 0.5) * res - placement.east_m
+    north = ((np.arange(row0, row1, dtype=np.float64) + 0.5) * res - placement.north_m).astype(np.float32)
+    east = ((np.arange(col0, col1, dtype=np.float64) + 0.5) * res - placement.east_m).astype(np.float32)
     down = placement.altitude_m
     # Vector from sonar to each cell's seabed point, in the sonar frame: v_s = R^T v.
-    rt = rot.T
-    vx = (rt[0, 0] * north[:, None] + rt[0, 1] * east[None, :] + rt[0, 2] * down).astype(np.float32)
-    vy = (rt[1, 0] * north[:, None] + rt[1, 1] * east[None, :] + rt[1, 2] * down).astype(np.float32)
-    vz = (rt[2, 0] * north[:, None] + rt[2, 1] * east[None, :] + rt[2, 2] * down).astype(np.float32)
+    rt = rot.T.astype(np.float32)
+    f32 = np.float32
+    vx = rt[0, 0] * north[:, None] + (rt[0, 1] * east + f32(rt[0, 2] * down))[None, :]
+    vy = rt[1, 0] * north[:, None] + (rt[1, 1] * east + f32(rt[1, 2] * down))[None, :]
+    vz = rt[2, 0] * north[:, None] + (rt[2, 1] * east + f32(rt[2, 2] * down))[None, :]
     horiz = np.sqrt(vx * vx + vy * vy)
     rng = np.sqrt(horiz * horiz + vz * vz)
     azimuth = np.arctan2(vy, vx)
-    elevation = np.arctan2(vz, horiz)
-    ranges = np.asarray(frame.range_m, dtype=np.float32)
+    ranges = np.asarray(frame.range_m, dtype=np.float64)
     beams = np.asarray(frame.beam_azimuth_rad, dtype=np.float32)
-    map_row = np.interp(rng.ravel(), ranges, np.arange(ranges.size, dtype=np.float32), left=-1, right=-1)
+    step = (ranges[-1] - ranges[0]) / (ranges.size - 1)
+    if np.allclose(np.diff(ranges), step, rtol=1e-6, atol=0.0):
+        # evenly spaced samples (every sonar here): the row is affine in the range
+        map_row = (rng - f32(ranges[0])) * f32(1.0 / step)
+        map_row[(map_row < 0) | (map_row > ranges.size - 1)] = -1.0
+    else:
+        map_row = np.interp(rng.ravel(), ranges, np.arange(ranges.size, dtype=np.float64), left=-1,
+                            right=-1).reshape(rng.shape).astype(np.float32)
     map_col = np.interp(azimuth.ravel(), beams, np.arange(beams.size, dtype=np.float32), left=-1, right=-1)
-    map_row = map_row.reshape(rng.shape).astype(np.float32)
     map_col = map_col.reshape(rng.shape).astype(np.float32)
     image = np.asarray(frame.image, dtype=np.float32)
     intensity = cv2.remap(image, map_col, map_row, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     half = frame.elevation_aperture_rad / 2.0
     half_fan = max(abs(float(beams[0])), abs(float(beams[-1])))
-    inside = (map_row >= 0) & (map_col >= 0) & (np.abs(elevation) <= half)
-    # Grazing angle on a horizontal seabed: the depression of the ray, asin(down / range).
-    grazing = np.arcsin(np.clip(down / np.maximum(rng, 1e-6), 0.0, 1.0))
-    inside &= grazing >= config.min_grazing_rad
+    # |elevation| / half, from tan(elevation) = vz / horiz
+    e_frac = np.abs(np.arctan(vz / np.maximum(horiz, f32(1e-9)))) * f32(1.0 / half)
+    inside = (map_row >= 0) & (map_col >= 0) & (e_frac <= 1.0)
+    # Grazing angle on a horizontal seabed: the depression of the ray, sin = down / range.
+    sin_grazing = f32(down) / np.maximum(rng, f32(1e-6))
+    inside &= sin_grazing >= math.sin(config.min_grazing_rad)
     weight = np.zeros(rng.shape, dtype=np.float32)
-    e_taper = np.cos(np.clip(np.abs(elevation) / half, 0.0, 1.0) * (math.pi / 2)) if config.beam_taper_power else 1.0
-    a_taper = np.cos(np.clip(np.abs(azimuth) / (half_fan * 1.05), 0.0, 1.0) * (math.pi / 2))
-    w = np.power(np.maximum(e_taper, 1e-3), config.beam_taper_power) * np.power(
-        np.maximum(a_taper, 1e-3), config.fan_taper_power
-    ) * np.sin(grazing)
+    w = sin_grazing
+    if config.beam_taper_power:
+        e_taper = np.maximum(np.cos(np.minimum(e_frac, f32(1.0)) * f32(math.pi / 2)), f32(1e-3))
+        w = w * _power(e_taper, config.beam_taper_power)
+    if config.fan_taper_power:
+        a_frac = np.minimum(np.abs(azimuth) * f32(1.0 / (half_fan * 1.05)), f32(1.0))
+        a_taper = np.maximum(np.cos(a_frac * f32(math.pi / 2)), f32(1e-3))
+        w = w * _power(a_taper, config.fan_taper_power)
     weight[inside] = w[inside]
-    if exclude_mask is not None:
-        excluded = cv2.remap(
-            exclude_mask.astype(np.uint8), map_col, map_row, cv2.INTER_NEAREST,
-            borderMode=cv2.BORDER_CONSTANT, borderValue=0,
-        )
-        weight[excluded > 0] = 0.0
+    unreliable: np.ndarray | None = None
+    if exclude_mask is not None or unreliable_mask is not None:
+        # One nearest-neighbour remap of a code image: bit 0 = excluded, bit 1 = unreliable.
+        codes = np.zeros(frame.image.shape, dtype=np.uint8)
+        if exclude_mask is not None:
+            codes[exclude_mask] = 1
+        if unreliable_mask is not None:
+            codes[unreliable_mask] |= 2
+        cell_codes = np.asarray(cv2.remap(codes, map_col, map_row, cv2.INTER_NEAREST,
+                                          borderMode=cv2.BORDER_CONSTANT, borderValue=0), dtype=np.uint8)
+        weight[(cell_codes & 1) > 0] = 0.0
+        unreliable = (cell_codes & 2) > 0
     intensity[weight == 0] = 0.0
     if not np.any(weight > 0):
         return None
-    return ProjectedFrame(row0, col0, intensity, weight)
+    reliable = weight > 0
+    if unreliable is not None:
+        reliable &= ~unreliable
+    return ProjectedFrame(row0, col0, intensity, weight, reliable)
 
 
 class TiledMosaic:

@@ -5,10 +5,18 @@ Algorithm 1 keeps a highlight ``T_i`` and a shadow ``S_j`` as a pair when
 overlap as pixel sets: the shadow lies directly behind the highlight in range, in the same
 beams. So ``|T_i ∩ S_j|`` is counted here over beams: the beams of ``T_i`` in which
 ``S_j`` starts no more than ``max_gap_samples`` rows after the far end of ``T_i``
-(and not before its near end); ``|T_i|`` is the number of beams of ``T_i``. Each
-highlight is used at most once and each beam of a shadow at most once (the merged
-shadows of neighbouring targets are shared out by beam), smallest gap first, then best
-overlap, so two targets in one beam each get the shadow right behind them.
+(and not before its near end); ``|T_i|`` is the number of beams of ``T_i``. Each beam
+of a highlight and each beam of a shadow is used at most once (merged regions of
+neighbouring targets are shared out by beam; a highlight paired already counts only its
+beams left over), smallest gap first, then best overlap, so two targets in one beam each
+get the shadow right behind them.
+
+Neighbouring targets can merge into one highlight and one shadow region, and one target's
+echo can break into several highlights. So the beams each shadow region received are then
+regrouped into targets: runs of neighbouring beams along which the shadow's first and last
+rows change smoothly. A jump in either (larger than ``JUMP_MIN_SAMPLES`` and than
+``JUMP_FRACTION`` of the shorter shadow) starts a new target; each run becomes one pair,
+with the highlight that holds most of its beams.
 
 Algorithm 1 also requires both regions inside the field of view; here a pair is kept
 either way and :class:`Pair` says which edge cuts it (``fov_flags``), so the measurement
@@ -22,7 +30,21 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from perception.segmentation import Region, Segmentation
+from perception.segmentation import Extents, Region, Segmentation
+
+#: A shadow's first or last row jumping by more than this (and JUMP_FRACTION) between
+#: neighbouring beams separates two targets, samples.
+JUMP_MIN_SAMPLES = 24
+
+#: ... and by more than this fraction of the shorter of the two shadow lengths.
+JUMP_FRACTION = 0.2
+
+#: Fewest beams of a regrouped target (when its shadow region holds more than one), and
+#: of a second pairing of one highlight.
+MIN_RUN_BEAMS = 5
+
+#: Neighbouring beams of one target may be this far apart (beams without its highlight).
+MAX_BEAM_STEP = 3
 
 
 @dataclass(frozen=True)
@@ -50,10 +72,6 @@ class PairingConfig:
             )
         if self.max_gap_samples < 0:
             raise ValueError(f"max_gap_samples must be >= 0, got {self.max_gap_samples}")
-
-
-#: Per column of a region's box: first row, last row, whether the region is there.
-Extents = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]
 
 
 @dataclass(frozen=True)
@@ -90,44 +108,97 @@ class Pair:
         return not self.fov_flags
 
 
-def column_extents(
-    labels: NDArray[np.int32], region: Region
-) -> Extents:
-    """First and last row of ``region`` in each column of its box, and which columns hold it."""
-    box = labels[region.row_start : region.row_stop, region.col_start : region.col_stop] == region.label
-    present = box.any(axis=0)
-    first = np.argmax(box, axis=0) + region.row_start
-    last = box.shape[0] - 1 - np.argmax(box[::-1], axis=0) + region.row_start
-    return first, last, present
+def column_extents(segmentation: Segmentation, region: Region) -> Extents:
+    """First and last row of ``region`` in each column of its box, and which columns hold it.
+
+    See :meth:`perception.segmentation.Segmentation.column_extents` (full-resolution rows,
+    to the detection grid's row step).
+    """
+    return segmentation.column_extents(region)
 
 
-def fov_flags(segmentation: Segmentation, *regions: Region) -> tuple[str, ...]:
+def fov_flags(
+    segmentation: Segmentation,
+    *regions: Region,
+    extents: dict[int, Extents] | None = None,
+    columns: tuple[int, ...] | None = None,
+) -> tuple[str, ...]:
     """Which edges of the field of view the regions touch (see :class:`Pair`).
 
-    The band's edges are checked per beam, for shadows (a shadow reaching the first or
-    last insonified row of any of its beams is cut there).
+    With ``columns`` (a pair's beams) only what concerns those beams counts: the fan's
+    edge when they reach it, and the band's edges in them. The band's edges are checked
+    per beam, for shadows: ``band_near`` when a shadow starts at the first insonified row
+    of any beam, ``band_far`` when it reaches the last insonified row in most of the
+    beams (a shadow cut by the far edge is cut across its width; the measurement checks
+    each beam it uses). ``extents`` may hold the shadows' :func:`column_extents` by label.
     """
-    n_rows, n_cols = segmentation.shadow_labels.shape
+    n_rows, n_cols = segmentation.levels.shape
+    d = segmentation.row_step
+    lo_col = 0 if columns is None else min(columns)
+    hi_col = n_cols - 1 if columns is None else max(columns)
     flags: list[str] = []
     for region in regions:
-        if region.col_start == 0:
+        if region.col_start == 0 and lo_col <= 1:
             flags.append("first_beam")
-        if region.col_stop == n_cols:
+        if region.col_stop == n_cols and hi_col >= n_cols - 2:
             flags.append("last_beam")
         if region.row_start == 0:
             flags.append("window_start")
         if region.row_stop == n_rows:
             flags.append("window_end")
         if region.kind == "shadow":
-            first, last, present = column_extents(segmentation.shadow_labels, region)  # small box
-            cols = slice(region.col_start, region.col_stop)
+            if columns is None:
+                known = None if extents is None else extents.get(region.label)
+                first, last, present = known if known is not None else column_extents(segmentation, region)
+                cols: slice | NDArray[np.intp] = slice(region.col_start, region.col_stop)
+            else:
+                cols = np.asarray(columns, dtype=np.intp)
+                first = segmentation.shadow_rows[0][region.label, cols]
+                last = segmentation.shadow_rows[1][region.label, cols]
+                present = last >= 0
             start = segmentation.band_start_rows[cols]
             stop = segmentation.band_stop_rows[cols]
+            # On a grid of step d a region's rows are its cells' ([d i, d i + d - 1]); the
+            # band's edge rows lie inside their cells.
             if np.any(present & (first <= start) & (start > 0)):
                 flags.append("band_near")
-            if np.any(present & (last >= stop) & (stop < n_rows - 1)):
+            at_far = present & (last - (d - 1) >= stop - stop % d) & (stop < n_rows - 1)
+            if 2 * np.count_nonzero(at_far) > np.count_nonzero(present):
                 flags.append("band_far")
     return tuple(dict.fromkeys(flags))
+
+
+def _median3(values: list[float]) -> list[float]:
+    """Running median of three (the ends kept): a single odd beam is not a jump."""
+    if len(values) < 3:
+        return values
+    inner = [sorted(values[i - 1 : i + 2])[1] for i in range(1, len(values) - 1)]
+    return [values[0], *inner, values[-1]]
+
+
+def _runs(
+    segmentation: Segmentation, shadow: Region, columns: list[int]
+) -> list[list[int]]:
+    """The beams a shadow region received, split into targets (see the module docstring).
+
+    Plain Python: a region holds a few dozen beams, fewer than numpy's call overhead pays for.
+    """
+    cols = sorted(columns)
+    first = _median3(segmentation.shadow_rows[0][shadow.label, cols].tolist())
+    last = _median3(segmentation.shadow_rows[1][shadow.label, cols].tolist())
+    runs = [[cols[0]]]
+    for k in range(1, len(cols)):
+        limit = max(JUMP_MIN_SAMPLES, JUMP_FRACTION * min(last[k - 1] - first[k - 1], last[k] - first[k]) + 1)
+        if (
+            cols[k] - cols[k - 1] > MAX_BEAM_STEP
+            or abs(first[k] - first[k - 1]) > limit
+            or abs(last[k] - last[k - 1]) > limit
+        ):
+            runs.append([])
+        runs[-1].append(cols[k])
+    if len(runs) > 1:
+        runs = [r for r in runs if len(r) >= MIN_RUN_BEAMS]
+    return runs
 
 
 def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = None) -> list[Pair]:
@@ -146,73 +217,84 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
         Ordered by the shadow's first beam.
     """
     cfg = config or PairingConfig()
-    shadow_ext = {
-        s.label: column_extents(segmentation.shadow_labels, s) for s in segmentation.shadows
-    }
-    highlight_ext: dict[int, Extents] = {}
+    highlights, shadows = segmentation.highlights, segmentation.shadows
+    if not highlights or not shadows:
+        return []
+    # Every highlight against every shadow in every beam at once: (highlight, shadow, beam).
+    h_labels = np.array([t.label for t in highlights])
+    s_labels = np.array([s.label for s in shadows])
+    t_first = segmentation.highlight_rows[0][h_labels][:, None, :]
+    t_last = segmentation.highlight_rows[1][h_labels][:, None, :]
+    s_first = segmentation.shadow_rows[0][s_labels][None, :, :]
+    s_present = segmentation.shadow_rows[1][s_labels][None, :, :] >= 0
+    t_present = t_last >= 0
+    gap = s_first - t_last - 1
+    follows = (
+        t_present & s_present & (s_first >= t_first) & (gap <= cfg.max_gap_samples) & (gap >= -1)
+    )
+    n_common = np.count_nonzero(follows, axis=2)
+    n_beams = np.count_nonzero(t_present[:, 0, :], axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratios = n_common / n_beams[:, None]
+    # A highlight merged from neighbours may fall short of overlap_min with each shadow
+    # until its other beams are paired: enough common beams keep it a candidate.
+    keep = (n_common > 0) & (ratios <= cfg.overlap_max) & (
+        (ratios >= cfg.overlap_min) | (n_common >= MIN_RUN_BEAMS)
+    )
     candidates: list[tuple[float, int, Region, Region, tuple[int, ...], int]] = []
-    for t in segmentation.highlights:
-        highlight_ext[t.label] = column_extents(segmentation.highlight_labels, t)
-        t_first, t_last, t_present = highlight_ext[t.label]
-        n_t = int(np.count_nonzero(t_present))
-        if n_t == 0:
-            continue
-        for s in segmentation.shadows:
-            lo, hi = max(t.col_start, s.col_start), min(t.col_stop, s.col_stop)
-            if (
-                lo >= hi
-                or s.row_stop <= t.row_start
-                or s.row_start > t.row_stop + cfg.max_gap_samples
-            ):
-                continue
-            s_first, _, s_present = shadow_ext[s.label]
-            ti = slice(lo - t.col_start, hi - t.col_start)
-            si = slice(lo - s.col_start, hi - s.col_start)
-            gap = s_first[si] - t_last[ti] - 1
-            follows = (
-                t_present[ti]
-                & s_present[si]
-                & (s_first[si] >= t_first[ti])
-                & (gap <= cfg.max_gap_samples)
-                & (gap >= -1)
-            )
-            n_common = int(np.count_nonzero(follows))
-            if n_common == 0:
-                continue
-            ratio = n_common / n_t
-            if not cfg.overlap_min <= ratio <= cfg.overlap_max:
-                continue
-            columns = tuple(int(c) for c in np.flatnonzero(follows) + lo)
-            median_gap = int(np.median(gap[follows]))
-            candidates.append((ratio, median_gap, t, s, columns, n_t))
+    for i, j in zip(*np.nonzero(keep), strict=True):
+        beams = np.flatnonzero(follows[i, j])
+        gaps = sorted(gap[i, j, beams].tolist())
+        median_gap = int((gaps[(len(gaps) - 1) // 2] + gaps[len(gaps) // 2]) / 2)
+        candidates.append(
+            (float(ratios[i, j]), median_gap, highlights[i], shadows[j], tuple(beams.tolist()), int(n_beams[i]))
+        )
     # Nearest shadow first: two targets in one beam each take the shadow right behind them.
     candidates.sort(key=lambda c: (c[1], -c[0], c[3].row_start))
-    used_t: set[int] = set()
-    used_s: dict[int, set[int]] = {}
-    pairs: list[Pair] = []
+    used_t: dict[int, set[int]] = {}  # highlight label -> its beams already paired
+    owner: dict[int, dict[int, tuple[Region, float]]] = {}  # shadow label -> beam -> highlight
+    shadow_of: dict[int, Region] = {}
     for ratio, _, t, s, all_columns, n_t in candidates:
-        # The shadows of neighbouring targets can merge into one region: each highlight
-        # then takes the beams of it right behind itself, never beams already taken.
-        taken = used_s.setdefault(s.label, set())
-        columns = tuple(c for c in all_columns if c not in taken)
-        if t.label in used_t or not columns:
+        # Neighbouring targets can merge into one shadow region and into one highlight
+        # region: each highlight then takes the beams right behind itself, never beams
+        # already taken, and a highlight paired already may take another shadow in its
+        # other beams (the ratio is then over the beams it has left).
+        taken = owner.setdefault(s.label, {})
+        t_taken = used_t.setdefault(t.label, set())
+        columns = tuple(c for c in all_columns if c not in taken and c not in t_taken)
+        if not columns:
             continue
-        if len(columns) < len(all_columns):
-            ratio = len(columns) / n_t
-            if ratio < cfg.overlap_min:
-                continue
-        used_t.add(t.label)
-        taken.update(columns)
-        pairs.append(
-            Pair(
-                highlight=t,
-                shadow=s,
-                overlap=ratio,
-                columns=columns,
-                fov_flags=fov_flags(segmentation, t, s),
-                highlight_extents=highlight_ext[t.label],
-                shadow_extents=shadow_ext[s.label],
+        if t_taken and len(columns) < MIN_RUN_BEAMS:
+            continue
+        ratio = len(columns) / (n_t - len(t_taken))
+        if not cfg.overlap_min <= ratio <= cfg.overlap_max:
+            continue
+        t_taken.update(columns)
+        shadow_of[s.label] = s
+        for c in columns:
+            taken[c] = (t, ratio)
+    pairs: list[Pair] = []
+    for label, by_beam in owner.items():
+        if not by_beam:
+            continue
+        s = shadow_of[label]
+        shadow_extents = segmentation.column_extents(s)
+        for run in _runs(segmentation, s, list(by_beam)):
+            votes: dict[int, int] = {}
+            for c in run:
+                votes[by_beam[c][0].label] = votes.get(by_beam[c][0].label, 0) + 1
+            t, ratio = max((by_beam[c] for c in run), key=lambda tr: votes[tr[0].label])
+            columns = tuple(run)
+            pairs.append(
+                Pair(
+                    highlight=t,
+                    shadow=s,
+                    overlap=ratio,
+                    columns=columns,
+                    fov_flags=fov_flags(segmentation, t, s, columns=columns),
+                    highlight_extents=segmentation.column_extents(t),
+                    shadow_extents=shadow_extents,
+                )
             )
-        )
     pairs.sort(key=lambda p: (p.shadow.col_start, p.shadow.row_start))
     return pairs

@@ -156,6 +156,11 @@ class Detection:
         The target's height from this frame alone, m; NaN when unknown.
     top_frame_index : int
         The frame whose measurement gave ``north_m``, ``east_m`` (-1: this frame's own).
+    top_slope_db_per_m : float
+        Slope of the echo (dB per metre of range) just before the shadow start, over the
+        measured beams; NaN when not measured. Near 0 for a sharp far top edge, clearly
+        negative for a rounded top whose echo fades towards its grazing point
+        (:func:`perception.heights.top_echo_slope_db_per_m`).
     """
 
     frame_index: int
@@ -169,6 +174,7 @@ class Detection:
     gate_m: float = math.nan
     height_guess_m: float = math.nan
     top_frame_index: int = -1
+    top_slope_db_per_m: float = math.nan
 
     @property
     def has_position(self) -> bool:

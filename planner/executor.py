@@ -72,9 +72,18 @@ class TiltController(Protocol):
         """(tilt to command, smallest shadow margin in rad or NaN)."""
         ...
 
+    def tracking_zone(self, pass_: SurveyPass) -> dict[str, float] | None:
+        """The pass's tracking zone for the log (``planner.pitch_control.describe_zone``), or None."""
+        ...
+
 
 class FixedTilt:
     """Holds the plan's tilt for the pass (the baseline the pitch loop is compared with)."""
+
+    def tracking_zone(self, pass_: SurveyPass) -> dict[str, float] | None:
+        """No tracking zone: nothing is tracked."""
+        del pass_
+        return None
 
     def tilt_command(self, *, now_s: float, pass_: SurveyPass, onboard: OnboardPerception,
                      current_tilt_rad: float, speed_m_s: float) -> tuple[float, float]:
@@ -372,6 +381,14 @@ class MissionExecutor:
 
     def _fly_pass(self, pass_: SurveyPass) -> None:
         self._pass = pass_
+        zone = self.tilt.tracking_zone(pass_)
+        if zone is not None:
+            self.run.event(self.clock.now_s(), "tracking_zone",
+                           f"{pass_.name}: shadows kept whole from {zone['start_m']:.2f} m ahead "
+                           f"({zone['start_over_altitude']:.2f} altitudes) to the window's end "
+                           f"{zone['end_ground_m']:.2f} m: {zone['depression_span_deg']:.1f} deg of "
+                           f"{zone['aperture_deg']:.1f} deg aperture, margin {zone['margin_deg']:.2f} deg",
+                           pass_=pass_.name, **zone)
         for prev, wp in zip(pass_.waypoints[:-1], pass_.waypoints[1:], strict=True):
             # The sonar looks ahead: face along each leg (ArduSub keeps its heading otherwise).
             if math.hypot(wp.north_m - prev.north_m, wp.east_m - prev.east_m) > 0.05:
@@ -413,7 +430,8 @@ class MissionExecutor:
         deadline = self.clock.now_s() + state_timeout_s
         self._last_target_s = -math.inf
         while True:
-            self._cycle(fly=True, target=(wp.north_m, wp.east_m), altitude_m=pass_.altitude_m)
+            self._cycle(fly=True, target=(wp.north_m, wp.east_m), altitude_m=pass_.altitude_m,
+                        speed_m_s=self.config.speed_m_s)
             nav = self.onboard.nav
             if nav is not None and math.hypot(wp.north_m - nav.north_m, wp.east_m - nav.east_m) \
                     < self.config.acceptance_radius_m:
@@ -445,7 +463,10 @@ class MissionExecutor:
 
     # ------------------------------------------------------------ control cycle
     def _cycle(self, *, fly: bool, target: tuple[float, float] | None = None,
-               altitude_m: float = math.nan) -> None:
+               altitude_m: float = math.nan, speed_m_s: float = 0.0) -> None:
+        """One control period; ``speed_m_s`` is the speed the vehicle is asked to fly
+        (the leg's speed while going to a waypoint, 0 while turning or holding), for the
+        pitch loop's prediction."""
         cfg = self.config
         self.clock.sleep_s(cfg.control_period_s)
         now = self.clock.now_s()
@@ -461,7 +482,7 @@ class MissionExecutor:
                 self._send_target(now, target, altitude_m)
             if self._pass is not None:
                 tilt, margin = self.tilt.tilt_command(now_s=now, pass_=self._pass, onboard=self.onboard,
-                                                      current_tilt_rad=self._tilt_cmd_rad, speed_m_s=cfg.speed_m_s)
+                                                      current_tilt_rad=self._tilt_cmd_rad, speed_m_s=speed_m_s)
                 self._margin_rad = margin
                 self._send_tilt(tilt)
         self._log(now)
@@ -518,7 +539,10 @@ class MissionExecutor:
     def _send_tilt(self, tilt_rad: float, *, force: bool = False) -> None:
         now = self.clock.now_s()
         changed = not math.isfinite(self._tilt_cmd_rad) or abs(tilt_rad - self._tilt_cmd_rad) > math.radians(0.2)
-        if force or (changed and now - self._tilt_sent_s >= self.config.control_period_s) \
+        # At most one tilt per control period, with slack: the clock's periods are sums of
+        # floats, and a strict ">=" skipped every other period's tilt (the mount then lagged
+        # the loop by a whole period).
+        if force or (changed and now - self._tilt_sent_s >= 0.5 * self.config.control_period_s) \
                 or now - self._tilt_sent_s > 2.0:
             self._tilt_sent_s = now
             try:

@@ -112,6 +112,78 @@ class MountLimits:
         return min(max(float(tilt_rad), self.min_tilt_rad), self.max_tilt_rad)
 
 
+def tracking_zone_start_m(
+    altitude_m: ArrayLike,
+    *,
+    window_end_m: float,
+    elevation_aperture_rad: float,
+    margin_rad: float,
+    min_over_altitude: float = 2.0,
+    height_m: float = 0.0,
+    fit_aperture: bool = True,
+) -> FloatArray:
+    """Where the tracking zone starts: ground range ahead (along the heading, m) of a
+    target's far top edge from which the loop keeps its shadow whole (and the scorer
+    counts it *within range*). The zone runs from there to the far end of the range window.
+
+    Two limits, the larger wins. ``min_over_altitude`` altitudes: nearer, the shadow
+    sweeps through the aperture faster than a mount follows. And one tilt must hold every
+    shadow in the zone with ``margin_rad`` at both aperture edges, so that targets in the
+    zone never conflict: the steepest ray is the start of the shadow of a target of height
+    ``height_m`` at the zone's start (the seabed at its top edge's slant range
+    ``hypot(x0, H - h)``), the shallowest the seabed at the window's end ``w1``; so
+
+        asin(H / hypot(x0, H - h)) - asin(H / w1) <= a - 2 m,
+
+    i.e. ``hypot(x0, H - h) >= H / sin(D)``, ``D = asin(H / w1) + a - 2 m`` (no limit
+    where ``D >= pi/2``). Flat seabed, point on the beam axis (off-axis points fit more
+    easily), ``height_m`` the tallest target to expect (0: the seabed alone).
+
+    Parameters
+    ----------
+    altitude_m : array_like
+        Sonar altitude(s) over the seabed ``H``, m (> 0), any shape.
+    window_end_m : float
+        Last slant range of the range window ``w1``, m.
+    elevation_aperture_rad, margin_rad : float
+        Full vertical aperture ``a`` and the margin ``m`` kept at each of its edges, rad
+        (``2 m < a``).
+    min_over_altitude : float
+        The zone never starts nearer than this many altitudes.
+    height_m : float
+        Tallest target height ``h``, m (``0 <= h``; clamped below ``H``).
+    fit_aperture : bool
+        False: the plain zone, ``min_over_altitude`` altitudes only (for comparison).
+
+    Returns
+    -------
+    ndarray of float, shape of ``altitude_m``
+        Zone start ``x0``, m; ``inf`` where the window does not reach the seabed
+        (``w1 <= H``).
+    """
+    alt = np.asarray(altitude_m, dtype=np.float64)
+    if np.any(~np.isfinite(alt)) or np.any(alt <= 0.0):
+        raise GeometryError(f"altitude_m must be finite and > 0, got {altitude_m!r}")
+    for key, value in (("window_end_m", window_end_m), ("elevation_aperture_rad", elevation_aperture_rad),
+                       ("margin_rad", margin_rad), ("min_over_altitude", min_over_altitude),
+                       ("height_m", height_m)):
+        if not (math.isfinite(value) and value >= 0.0):
+            raise GeometryError(f"{key} must be finite and >= 0, got {value!r}")
+    if not 0.0 < elevation_aperture_rad - 2.0 * margin_rad < math.pi:
+        raise GeometryError(f"need 0 < elevation_aperture_rad - 2 margin_rad < pi, got "
+                            f"{elevation_aperture_rad!r} and {margin_rad!r}")
+    reach = window_end_m > alt
+    with np.errstate(divide="ignore", invalid="ignore"):
+        shallow = np.arcsin(np.minimum(1.0, alt / window_end_m))
+        steep = shallow + elevation_aperture_rad - 2.0 * margin_rad
+        slant = alt / np.sin(np.minimum(steep, math.pi / 2))
+        below = alt - np.minimum(height_m, 0.95 * alt)
+        fit = np.where(steep >= math.pi / 2, 0.0, np.sqrt(np.maximum(0.0, slant**2 - below**2)))
+    if not fit_aperture:
+        fit = np.zeros_like(fit)
+    return np.where(reach, np.maximum(min_over_altitude * alt, fit), np.inf)
+
+
 @dataclass(frozen=True)
 class PitchLoopConfig:
     """Settings of the pitch loop (validated on construction).
@@ -137,9 +209,16 @@ class PitchLoopConfig:
         target's slack weighs ``lead_weight_factor`` times less, so it never pulls the
         beam off a target that is properly within range.
     min_ground_range_over_altitude : float
-        Tracking zone: targets whose near foot is nearer than this many altitudes
-        (horizontally) are dropped (``"too_close"``): there the shadow sweeps faster
-        than a mount follows and the target has been seen already.
+        Tracking zone (:meth:`zone_start_m`): it never starts nearer than this many
+        altitudes along the heading; targets whose far top edge is nearer than the zone's
+        start are dropped (``"too_close"``): there the shadow sweeps faster than a mount
+        follows, or it no longer fits one tilt with the farthest shadows in the window,
+        and the target has been seen whole already.
+    zone_fits_aperture : bool
+        True (the default): the tracking zone starts where one tilt holds every shadow
+        from there to the window's end (:func:`tracking_zone_start_m`), so targets in
+        the zone never conflict. False: ``min_ground_range_over_altitude`` altitudes
+        only, the plain zone (for comparison; there, targets in range can conflict).
     height_prior_m, height_min_m : float
         Heights assumed for targets without an estimate, m: the tall prior for the
         aperture constraints (it puts the shadow end farther: safe), the short one for
@@ -156,6 +235,18 @@ class PitchLoopConfig:
     weight_nominal, weight_increment, weight_coverage : float
         Cost per rad^2 of distance to the nominal tilt, of tilt increments and (L1 and
         L2 alike, per rad) of leaving the coverage band.
+    search_weight_factor : float
+        Slack weight factor (relative to the shadow constraints') of a soft band on the
+        depression that keeps the far end of the range window in view: the seabed at
+        ``window_m[1]`` inside the shallow edge and the start of the shadow of a
+        ``height_prior_m`` target ending there inside the steep edge (both less
+        ``margin_rad``). A target entering the window is then seen whole at once, before
+        any tracker knows it. Between ``lead_weight_factor`` and 1: tracked targets in
+        range win over it, targets in the lead band yield to it. 0 turns it off.
+    hold_start_s : float
+        Each step's tilt must suit the geometry from this long after the step's start
+        (the first frame it can act on: the mount's transit, the next ping) to its end, s;
+        0 holds it from the start (the most cautious).
     max_targets : int
         Number of target slots in the QP; the nearest served targets fill them.
     solver : str
@@ -172,6 +263,7 @@ class PitchLoopConfig:
     zone_lead_m: float = 0.3
     lead_weight_factor: float = 0.02
     min_ground_range_over_altitude: float = 2.0
+    zone_fits_aperture: bool = True
     height_prior_m: float = 0.4
     height_min_m: float = 0.02
     pitch_accel_max_rad_s2: float = math.radians(12.0)
@@ -182,6 +274,8 @@ class PitchLoopConfig:
     weight_nominal: float = 1.0
     weight_increment: float = 20.0
     weight_coverage: float = 10.0
+    search_weight_factor: float = 0.0
+    hold_start_s: float = 0.0
     max_targets: int = 4
     solver: str = "daqp"
 
@@ -207,16 +301,26 @@ class PitchLoopConfig:
         if not 0.0 < _finite(self.lead_weight_factor, "lead_weight_factor", lo=0.0, lo_open=True) <= 1.0:
             raise ConfigError(f"must be in (0, 1], got {self.lead_weight_factor!r}", key="lead_weight_factor")
         _finite(self.min_ground_range_over_altitude, "min_ground_range_over_altitude", lo=0.0)
+        if not isinstance(self.zone_fits_aperture, bool):
+            raise ConfigError(f"must be True or False, got {self.zone_fits_aperture!r}", key="zone_fits_aperture")
         _finite(self.height_prior_m, "height_prior_m", lo=0.0)
         if not 0.0 <= _finite(self.height_min_m, "height_min_m", lo=0.0) <= self.height_prior_m:
             raise ConfigError(f"must be <= height_prior_m, got {self.height_min_m!r}", key="height_min_m")
         _finite(self.pitch_accel_max_rad_s2, "pitch_accel_max_rad_s2", lo=0.0)
+        if 2.0 * (m + 0.5 * self.pitch_accel_max_rad_s2 * self.dt_s**2) >= a:
+            raise ConfigError(f"the margin plus the pitch envelope over one step must be below half the aperture "
+                              f"({a / 2!r}), got {m!r} + 0.5 * {self.pitch_accel_max_rad_s2!r} * {self.dt_s!r}^2",
+                              key="pitch_accel_max_rad_s2")
         _finite(self.pitch_rate_time_s, "pitch_rate_time_s", lo=0.0, lo_open=True)
         if self.coverage_depression_rad is not None:
             c0, c1 = (float(v) for v in self.coverage_depression_rad)
             if not (math.isfinite(c0) and math.isfinite(c1) and c0 <= c1):
                 raise ConfigError(f"must be finite with lo <= hi, got {self.coverage_depression_rad!r}",
                                   key="coverage_depression_rad")
+        if not 0.0 <= _finite(self.hold_start_s, "hold_start_s", lo=0.0) <= self.dt_s:
+            raise ConfigError(f"must be in [0, dt_s], got {self.hold_start_s!r}", key="hold_start_s")
+        if not 0.0 <= _finite(self.search_weight_factor, "search_weight_factor", lo=0.0) <= 1.0:
+            raise ConfigError(f"must be in [0, 1], got {self.search_weight_factor!r}", key="search_weight_factor")
         for key in ("weight_slack_l1", "weight_coverage", "weight_nominal"):
             _finite(getattr(self, key), key, lo=0.0)
         _finite(self.weight_slack_l2, "weight_slack_l2", lo=0.0, lo_open=True)
@@ -225,6 +329,26 @@ class PitchLoopConfig:
             raise ConfigError(f"must be a whole number in [1, 64], got {self.max_targets!r}", key="max_targets")
         if self.solver not in SOLVERS:
             raise ConfigError(f"must be one of {SOLVERS}, got {self.solver!r}", key="solver")
+
+    @property
+    def pitch_envelope_rad(self) -> float:
+        """Pitch-prediction envelope over one step, ``0.5 a_max dt^2``, rad."""
+        return 0.5 * self.pitch_accel_max_rad_s2 * self.dt_s**2
+
+    @property
+    def zone_margin_rad(self) -> float:
+        """The loop's margin at each aperture edge: ``margin_rad`` plus the pitch envelope, rad."""
+        return self.margin_rad + self.pitch_envelope_rad
+
+    def zone_start_m(self, altitude_m: ArrayLike) -> FloatArray:
+        """Start of the tracking zone at ``altitude_m`` (m, any shape): :func:`tracking_zone_start_m`
+        with this window's end, aperture, :attr:`zone_margin_rad`, ``min_ground_range_over_altitude``
+        and the tall height prior, m."""
+        return tracking_zone_start_m(altitude_m, window_end_m=float(self.window_m[1]),
+                                     elevation_aperture_rad=self.elevation_aperture_rad,
+                                     margin_rad=self.zone_margin_rad,
+                                     min_over_altitude=self.min_ground_range_over_altitude,
+                                     height_m=self.height_prior_m, fit_aperture=self.zone_fits_aperture)
 
 
 @dataclass(frozen=True)
@@ -431,7 +555,10 @@ class ShadowGeometry:
     """Level-frame points of targets' shadows at one or more times (arrays broadcast).
 
     ``top_*``: the far top edge (depth ``H - h``); the far foot is below it (depth
-    ``H``); ``end_*``: the shadow end on the seabed; ``base_*``: the near foot. Slant
+    ``H``); ``end_*``: the shadow end on the seabed; ``base_*``: the near foot;
+    ``start_*``: the seabed point at the top edge's slant range on the top edge's
+    bearing (depth ``H``): the image shows the shadow from that slant range on, so it
+    too must be insonified (it is nearer than the far foot, by ``~ H h / g``). Slant
     ranges in m, bearing from the heading in rad.
     """
 
@@ -445,6 +572,8 @@ class ShadowGeometry:
     near_slant_m: FloatArray
     base_ground_m: FloatArray
     bearing_rad: FloatArray
+    start_along_m: FloatArray
+    start_cross_m: FloatArray
 
 
 def shadow_geometry(
@@ -469,23 +598,32 @@ def shadow_geometry(
     r_top = np.sqrt(g**2 + (alt - h) ** 2)
     end = r_top * alt / (alt - h)
     near = np.minimum(np.minimum(r_top, np.sqrt(g**2 + alt**2)), np.sqrt(bx**2 + by**2 + alt**2))
-    return ShadowGeometry(alt, h, x, y, bx, by, end, near, g * shrink, np.arctan2(y, x))
+    # The seabed at the top edge's slant range: ground sqrt(r_top^2 - H^2) on the same bearing.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        start_scale = np.where(g > 0, np.sqrt(np.maximum(r_top**2 - alt**2, 0.0)) / np.where(g > 0, g, 1.0), 0.0)
+    return ShadowGeometry(alt, h, x, y, bx, by, end, near, g * shrink, np.arctan2(y, x),
+                          x * start_scale, y * start_scale)
 
 
-def depression_interval_rad(geom: ShadowGeometry, *, half_aperture_rad: float) -> tuple[FloatArray, FloatArray]:
+def depression_interval_rad(geom: ShadowGeometry, *, half_aperture_rad: float,
+                            include_base: bool = True) -> tuple[FloatArray, FloatArray]:
     """Beam-axis depressions that keep the whole shadow inside the aperture, rad.
 
-    The intersection of the intervals of the top/end ray, the far foot and the near
-    foot (:func:`aperture_interval_rad`); ``lo > hi`` where the shadow spans more than
-    ``2 half_aperture_rad``.
+    The intersection of the intervals of the top/end ray, the far foot, the near foot
+    and the seabed at the shadow's start range (:func:`aperture_interval_rad`);
+    ``lo > hi`` where the shadow spans more than ``2 half_aperture_rad``. Without
+    ``include_base`` the near foot is left out: the shadow alone (for a target with a
+    footprint, its near part is nearer than the shadow's start on the middle beams).
     """
-    lo_t, hi_t = aperture_interval_rad(geom.top_along_m, geom.top_cross_m, geom.altitude_m - geom.height_m,
-                                       half_aperture_rad=half_aperture_rad)
-    lo_f, hi_f = aperture_interval_rad(geom.top_along_m, geom.top_cross_m, geom.altitude_m,
-                                       half_aperture_rad=half_aperture_rad)
-    lo_b, hi_b = aperture_interval_rad(geom.base_along_m, geom.base_cross_m, geom.altitude_m,
-                                       half_aperture_rad=half_aperture_rad)
-    return np.maximum(np.maximum(lo_t, lo_f), lo_b), np.minimum(np.minimum(hi_t, hi_f), hi_b)
+    lo, hi = aperture_interval_rad(geom.top_along_m, geom.top_cross_m, geom.altitude_m - geom.height_m,
+                                   half_aperture_rad=half_aperture_rad)
+    points = [(geom.top_along_m, geom.top_cross_m), (geom.start_along_m, geom.start_cross_m)]
+    if include_base:
+        points.append((geom.base_along_m, geom.base_cross_m))
+    for x, y in points:
+        lo_p, hi_p = aperture_interval_rad(x, y, geom.altitude_m, half_aperture_rad=half_aperture_rad)
+        lo, hi = np.maximum(lo, lo_p), np.minimum(hi, hi_p)
+    return lo, hi
 
 
 def shadow_margins_rad(geom: ShadowGeometry, *, depression_rad: ArrayLike,
@@ -493,14 +631,16 @@ def shadow_margins_rad(geom: ShadowGeometry, *, depression_rad: ArrayLike,
     """Elevation margins (rad, positive inside) of a shadow to the aperture's edges.
 
     Returns ``(far, near)``: the shallowest of the shadow's rays (top/end ray, far foot,
-    near foot) to the shallow edge ``-a/2``, and the steepest to the steep edge ``+a/2``.
+    near foot, seabed at the start range) to the shallow edge ``-a/2``, and the steepest
+    to the steep edge ``+a/2``.
     """
     half = elevation_aperture_rad / 2.0
     e = [point_elevation_rad(geom.top_along_m, geom.top_cross_m, geom.altitude_m - geom.height_m,
-                             depression_rad=depression_rad),
-         point_elevation_rad(geom.top_along_m, geom.top_cross_m, geom.altitude_m, depression_rad=depression_rad),
-         point_elevation_rad(geom.base_along_m, geom.base_cross_m, geom.altitude_m, depression_rad=depression_rad)]
-    return np.minimum(np.minimum(e[0], e[1]), e[2]) + half, half - np.maximum(np.maximum(e[0], e[1]), e[2])
+                             depression_rad=depression_rad)]
+    e += [point_elevation_rad(x, y, geom.altitude_m, depression_rad=depression_rad)
+          for x, y in ((geom.top_along_m, geom.top_cross_m), (geom.base_along_m, geom.base_cross_m),
+                       (geom.start_along_m, geom.start_cross_m))]
+    return np.minimum.reduce(e) + half, half - np.maximum.reduce(e)
 
 
 # --------------------------------------------------------------------------- measurements
@@ -657,9 +797,11 @@ def predict_horizon(state: PitchState, shadows: Sequence[TrackedShadow], config:
 
 
 def _serviceability(pred: HorizonPrediction, config: PitchLoopConfig, limits: MountLimits,
-                    envelope_rad: float) -> tuple[FloatArray, FloatArray, NDArray[np.object_], NDArray[np.bool_]]:
+                    envelope_rad: float) -> tuple[FloatArray, FloatArray, NDArray[np.object_], NDArray[np.bool_],
+                                                  FloatArray]:
     """Tilt bounds ``(L, U)`` per (target, step), the reason each is not served ('' if
-    served) and whether it is within the window and zone proper (not only the lead band).
+    served), whether it is within the window and zone proper (not only the lead band), and
+    ``L`` for the shadow alone (without the target's footprint).
 
     ``L > U`` where the margins and the envelope leave no room but the bare aperture
     does: such a target is still served and the QP centres it. It is dropped only when
@@ -670,14 +812,18 @@ def _serviceability(pred: HorizonPrediction, config: PitchLoopConfig, limits: Mo
     lo, hi = depression_interval_rad(g, half_aperture_rad=config.elevation_aperture_rad / 2 - config.margin_rad)
     low_t = lo + pred.pitch_rad + envelope_rad
     up_t = hi + pred.pitch_rad - envelope_rad
+    lo_s, _ = depression_interval_rad(g, half_aperture_rad=config.elevation_aperture_rad / 2 - config.margin_rad,
+                                      include_base=False)
+    low_shadow = lo_s + pred.pitch_rad + envelope_rad
     lo0, hi0 = depression_interval_rad(gr, half_aperture_rad=config.elevation_aperture_rad / 2)
     w0, w1 = config.window_m
+    zone_start = config.zone_start_m(pred.altitude_m)
     reason = np.full(lo.shape, "", dtype=object)
     checks = [
         (hi0 < lo0, EXTENT_EXCEEDS_APERTURE),
         ((lo0 + pred.pitch_rad > limits.max_tilt_rad) | (hi0 + pred.pitch_rad < limits.min_tilt_rad),
          BEYOND_MOUNT_LIMITS),
-        (g.base_ground_m < config.min_ground_range_over_altitude * pred.altitude_m - lead, TOO_CLOSE),
+        (g.top_along_m < zone_start - lead, TOO_CLOSE),
         (g.near_slant_m < w0 - lead, BEFORE_WINDOW_START),
         (gr.end_slant_m > w1 + lead, BEYOND_WINDOW_END),
         (np.abs(g.bearing_rad) > config.fan_width_rad / 2, OUTSIDE_FAN),
@@ -685,12 +831,36 @@ def _serviceability(pred: HorizonPrediction, config: PitchLoopConfig, limits: Mo
     ]
     for bad, why in checks:  # the last one that applies wins: the most basic reason
         reason[bad] = why
-    core = ((g.base_ground_m >= config.min_ground_range_over_altitude * pred.altitude_m)
+    core = ((g.top_along_m >= zone_start)
             & (g.near_slant_m >= w0) & (g.end_slant_m <= w1))
-    return low_t, up_t, reason, core
+    return low_t, up_t, reason, core, low_shadow
 
 
 # --------------------------------------------------------------------------- the loop
+
+
+def search_band_rad(pred: HorizonPrediction, config: PitchLoopConfig) -> tuple[FloatArray, FloatArray] | None:
+    """Depressions that keep the far end of the range window in view, rad, shape ``(N + 1,)``
+    each (see ``PitchLoopConfig.search_weight_factor``); None when turned off.
+
+    ``hi = asin(H / w1) + a/2 - m`` puts the seabed at the window's last slant range
+    ``w1`` on the shallow edge less the margin; ``lo = asin(H / r) - (a/2 - m)`` with
+    ``r = w1 (H - h) / H`` (``h`` the tall prior) puts the start of the shadow of a target
+    whose shadow ends at ``w1`` on the steep edge; ``lo`` is capped at ``hi``. Where the
+    window ends above the seabed (``w1 <= H``) the band is unbounded.
+    """
+    if config.search_weight_factor <= 0.0:
+        return None
+    alt = pred.altitude_m
+    w1 = config.window_m[1]
+    half = config.elevation_aperture_rad / 2 - config.margin_rad
+    h = np.minimum(config.height_prior_m, 0.95 * alt)
+    reach = w1 > alt
+    with np.errstate(divide="ignore", invalid="ignore"):
+        hi = np.where(reach, np.arcsin(np.minimum(1.0, alt / w1)) + half, np.inf)
+        r_start = w1 * (alt - h) / alt
+        lo = np.where(reach, np.arcsin(np.minimum(1.0, alt / r_start)) - half, -np.inf)
+    return np.minimum(lo, hi), hi
 
 
 class PitchLoop:
@@ -705,9 +875,9 @@ class PitchLoop:
         self.limits = limits
         n, m = config.horizon_steps, config.max_targets
         self._n, self._m = n, m
-        nx = n + n * m + n
+        nx = n + n * m + n + n  # tilts, target slacks (step-major), coverage slacks, search slacks
         self._nx = nx
-        s0, c0 = n, n + n * m
+        s0, c0, q0 = n, n + n * m, n + n * m + n
         hess = np.zeros((nx, nx))
         wi, wn = config.weight_increment, config.weight_nominal
         for k in range(n):
@@ -715,8 +885,9 @@ class PitchLoop:
             if k < n - 1:
                 hess[k, k + 1] = hess[k + 1, k] = -2.0 * wi
         hess[s0:c0, s0:c0] = np.eye(n * m) * 2.0 * config.weight_slack_l2
-        hess[c0:, c0:] = np.eye(n) * 2.0 * config.weight_coverage
-        rows = 2 * n * m + 2 * n + (n - 1)
+        hess[c0:q0, c0:q0] = np.eye(n) * 2.0 * config.weight_coverage
+        hess[q0:, q0:] = np.eye(n) * 2.0 * config.weight_slack_l2 * max(config.search_weight_factor, 1e-3)
+        rows = 2 * n * m + 2 * n + (n - 1) + 2 * n
         a = np.zeros((rows, nx))
         r = 0
         for k in range(n):
@@ -731,8 +902,12 @@ class PitchLoop:
         for k in range(1, n):
             a[r, k], a[r, k - 1] = 1.0, -1.0
             r += 1
+        for k in range(n):
+            a[r, k], a[r, q0 + k] = 1.0, 1.0
+            a[r + 1, k], a[r + 1, q0 + k] = 1.0, -1.0
+            r += 2
         self._a = a
-        self._s0, self._c0 = s0, c0
+        self._s0, self._c0, self._q0 = s0, c0, q0
         self._hess_dm, self._a_dm = ca.sparsify(ca.DM(hess)), ca.sparsify(ca.DM(a))
         opts: dict[str, Any] = {"error_on_fail": False}
         if config.solver == "qpoases":
@@ -751,7 +926,7 @@ class PitchLoop:
     @property
     def envelope_rad(self) -> float:
         """Pitch-prediction envelope over one step, ``0.5 a_max dt^2``, rad."""
-        return 0.5 * self.config.pitch_accel_max_rad_s2 * self.config.dt_s**2
+        return self.config.pitch_envelope_rad
 
     def step(self, state: PitchState, shadows: Sequence[TrackedShadow]) -> PitchCommand:
         """One control step: the tilt to command now.
@@ -786,10 +961,17 @@ class PitchLoop:
                 lba[base + 2 * k] = cfg.coverage_depression_rad[0] + pred.pitch_rad[k + 1]
                 uba[base + 2 * k + 1] = cfg.coverage_depression_rad[1] + pred.pitch_rad[k + 1]
         step_max = lim.max_rate_rad_s * cfg.dt_s
-        lba[2 * n * m + 2 * n:] = -step_max
-        uba[2 * n * m + 2 * n:] = step_max
+        inc0 = 2 * n * m + 2 * n
+        lba[inc0:inc0 + n - 1] = -step_max
+        uba[inc0:inc0 + n - 1] = step_max
         lbx = np.zeros(self._nx)
         ubx = np.full(self._nx, np.inf)
+        search = search_band_rad(pred, cfg)
+        if search is None:
+            ubx[self._q0:] = 0.0
+        else:
+            lba[inc0 + n - 1::2] = search[0][1:] + pred.pitch_rad[1:]
+            uba[inc0 + n::2] = search[1][1:] + pred.pitch_rad[1:]
         lbx[:n], ubx[:n] = lim.min_tilt_rad, lim.max_tilt_rad
         first_lo, first_hi = max(lim.min_tilt_rad, t0 - step_max), min(lim.max_tilt_rad, t0 + step_max)
         lbx[0], ubx[0] = first_lo, first_hi
@@ -797,7 +979,8 @@ class PitchLoop:
         g[:n] = -2.0 * cfg.weight_nominal * cfg.nominal_tilt_rad
         g[0] += -2.0 * cfg.weight_increment * t0
         g[self._s0:self._c0] = cfg.weight_slack_l1 * weight.ravel()
-        g[self._c0:] = cfg.weight_coverage
+        g[self._c0:self._q0] = cfg.weight_coverage
+        g[self._q0:] = cfg.weight_slack_l1 * cfg.search_weight_factor
         hess_nz = self._hess_nz.copy()
         hess_nz[self._slack_nz] = 2.0 * cfg.weight_slack_l2 * weight.ravel()
         hess = ca.DM(self._hess_sp, hess_nz)
@@ -845,10 +1028,11 @@ def _select(state: PitchState, shadows: Sequence[TrackedShadow], cfg: PitchLoopC
     if not shadows:
         empty = np.zeros((0, cfg.horizon_steps + 1))
         return [], [], empty, empty, empty, pred
-    low, up, reason, core = _serviceability(pred, cfg, lim, envelope_rad)
+    low, up, reason, core, low_shadow = _serviceability(pred, cfg, lim, envelope_rad)
     ok = reason == ""
     core = core & ok
     low = np.where(ok, low, np.nan)
+    low_shadow = np.where(ok, low_shadow, np.nan)
     up = np.where(ok, up, np.nan)
     # The mount reaches each command quickly and holds it through the step while the
     # target moves: tilt_k must suit the geometry at both ends of step k (at the ends
@@ -856,8 +1040,10 @@ def _select(state: PitchState, shadows: Sequence[TrackedShadow], cfg: PitchLoopC
     ok[:, 1:] = ok[:, 1:] | ok[:, :-1]
     core[:, 1:] = core[:, 1:] | core[:, :-1]
     factor = np.where(core, 1.0, cfg.lead_weight_factor)
-    low[:, 1:] = np.fmax(low[:, 1:], low[:, :-1])
-    up[:, 1:] = np.fmin(up[:, 1:], up[:, :-1])
+    w = min(max(cfg.hold_start_s / cfg.dt_s, 0.0), 1.0)
+    low[:, 1:] = np.fmax(low[:, 1:], _held_from(low, w))
+    low_shadow[:, 1:] = np.fmax(low_shadow[:, 1:], _held_from(low_shadow, w))
+    up[:, 1:] = np.fmin(up[:, 1:], _held_from(up, w))
     dropped: list[DroppedShadow] = []
     candidates: list[tuple[float, int]] = []
     for i, s in enumerate(shadows):
@@ -868,7 +1054,76 @@ def _select(state: PitchState, shadows: Sequence[TrackedShadow], cfg: PitchLoopC
     candidates.sort()
     served = [(i, bool(ok[i, 1])) for _, i in candidates[: cfg.max_targets]]
     dropped += [DroppedShadow(shadows[i].target_id, TOO_MANY_TARGETS) for _, i in candidates[cfg.max_targets:]]
+    firm = np.array([s.measured or s.height_m is not None for s in shadows])
+    _yield_in_conflicts(pred, [i for i, _ in served], core & ok, factor, cfg, firm)
+    _footprints_yield(low, low_shadow, up, factor, [i for i, _ in served])
     return served, dropped, low, up, factor, pred
+
+
+def _footprints_yield(low: FloatArray, low_shadow: FloatArray, up: FloatArray, factor: FloatArray,
+                      idx: list[int]) -> None:
+    """A target's footprint (its near part, nearer than its shadow) is kept in the beam
+    only where that costs no other fully weighted target's shadow: where its bound with
+    the footprint lies beyond another's opposite bound, its shadow's own bound is used
+    (``low`` is changed in place; arrays of shape ``(n_targets, N + 1)``)."""
+    if len(idx) < 2:
+        return
+    for k in range(1, low.shape[1]):
+        active = [i for i in idx if factor[i, k] >= 1.0 and np.isfinite(low[i, k])]
+        for i in active:
+            others = [float(up[j, k]) for j in active if j != i]
+            if others and low[i, k] > min(others):
+                low[i, k] = low_shadow[i, k]
+
+
+def _held_from(bound: FloatArray, fraction: float) -> FloatArray:
+    """A bound at the first instant each step's tilt acts on a frame: ``fraction`` of the
+    way from the step's start to its end (linear), shape ``(n, N)`` from ``(n, N + 1)``;
+    NaN where the bound is NaN at the start (not served then)."""
+    start, end = bound[:, :-1], bound[:, 1:]
+    return np.where(np.isnan(start), np.nan, start + fraction * np.nan_to_num(end - start))
+
+
+def _yield_in_conflicts(pred: HorizonPrediction, idx: list[int], core: NDArray[np.bool_], factor: FloatArray,
+                        cfg: PitchLoopConfig, firm: NDArray[np.bool_]) -> None:
+    """Where no tilt shows several targets in range whole at once, the nearer ones yield.
+
+    Per step, the targets within range proper are taken from the farthest to the nearest;
+    one whose bare shadow interval (no margin, no envelope, no footprint) misses the
+    common interval of those taken before it, at both ends of the step, gets
+    ``lead_weight_factor`` (``factor`` is changed in place, shape ``(n_targets, N + 1)``).
+    Without this the QP would split the violation and lose both; and the nearer target is
+    the one about to leave the tracking zone, seen whole on its way in, while the farther
+    one stays in range longer (keeping the nearer would cost the farther one as many
+    frames plus the slew back to it). Targets seen in this frame or with a height come
+    before those known only from memory with no height (``firm``, shape ``(n_targets,)``):
+    a guess with the tall height prior never displaces a shadow actually seen.
+    """
+    if len(idx) < 2:
+        return
+    lo, hi = depression_interval_rad(pred.geometry, half_aperture_rad=cfg.elevation_aperture_rad / 2,
+                                     include_base=False)
+    lo = lo + pred.pitch_rad
+    hi = hi + pred.pitch_rad
+    w = min(max(cfg.hold_start_s / cfg.dt_s, 0.0), 1.0)
+    lo_start, hi_start = _held_from(lo, w), _held_from(hi, w)
+    along = pred.geometry.top_along_m
+    for k in range(1, lo.shape[1]):
+        order = sorted((i for i in idx if core[i, k]), key=lambda i: (not firm[i], -float(along[i, k])))
+        yielding: set[int] | None = None
+        for lo_j, hi_j in ((lo_start[:, k - 1], hi_start[:, k - 1]), (lo[:, k], hi[:, k])):
+            # a conflict only when there is one at both ends of the step
+            common_lo, common_hi = -math.inf, math.inf
+            here: set[int] = set()
+            for i in order:
+                new_lo, new_hi = max(common_lo, float(lo_j[i])), min(common_hi, float(hi_j[i]))
+                if new_lo <= new_hi:
+                    common_lo, common_hi = new_lo, new_hi
+                else:
+                    here.add(i)
+            yielding = here if yielding is None else yielding & here
+        for i in yielding or ():
+            factor[i, k] = min(factor[i, k], cfg.lead_weight_factor)
 
 
 def _margins(pred: HorizonPrediction, shadows: Sequence[TrackedShadow], served: list[tuple[int, bool]],
@@ -993,9 +1248,10 @@ def whole_shadow_visible(
 ) -> NDArray[np.bool_]:
     """Truth: is each target's whole shadow inside the field of view? (direct ray computation)
 
-    The top edge, the near foot and ``samples`` seabed points from the far foot to the
-    shadow end are turned into the sonar frame with :func:`perception.geometry.sonar_to_ned`;
-    all must be within the elevation aperture, the fan and the range window.
+    The top edge, the near foot, the seabed at the top edge's slant range and ``samples``
+    seabed points from the far foot to the shadow end are turned into the sonar frame
+    with :func:`perception.geometry.sonar_to_ned`; all must be within the elevation
+    aperture, the fan and the range window.
 
     Parameters
     ----------
@@ -1007,6 +1263,7 @@ def whole_shadow_visible(
     scale = 1.0 + s * (alt / (alt - h) - 1.0)[:, None]
     pts = [np.stack([geom.top_along_m, geom.top_cross_m, alt - h], axis=-1)[:, None, :],
            np.stack([geom.base_along_m, geom.base_cross_m, alt], axis=-1)[:, None, :],
+           np.stack([geom.start_along_m, geom.start_cross_m, alt], axis=-1)[:, None, :],
            np.stack([geom.top_along_m[:, None] * scale, geom.top_cross_m[:, None] * scale,
                      np.broadcast_to(alt[:, None], scale.shape)], axis=-1)]
     p = np.concatenate(pts, axis=1)
@@ -1027,7 +1284,7 @@ def _truth_in_range(geom: ShadowGeometry, *, pitch_rad: float, config: PitchLoop
     w0, w1 = config.window_m
     ok = ((geom.top_along_m > 0) & (geom.end_slant_m <= w1) & (geom.near_slant_m >= w0)
           & (np.abs(geom.bearing_rad) <= config.fan_width_rad / 2)
-          & (geom.base_ground_m >= config.min_ground_range_over_altitude * geom.altitude_m) & (lo_t <= hi_t))
+          & (geom.base_ground_m >= config.zone_start_m(geom.altitude_m)) & (lo_t <= hi_t))
     return ok, lo_t, hi_t
 
 
@@ -1129,9 +1386,10 @@ def simulate_pass(
 
 def nominal_tilt_for(altitude_m: float, config: PitchLoopConfig) -> float:
     """A fixed tilt for an altitude: the beam axis midway, in depression, across the
-    tracking zone (from the far end of the range window to the zone's near edge), rad."""
+    tracking zone (from the far end of the range window to the zone's near edge,
+    :meth:`PitchLoopConfig.zone_start_m`), rad."""
     far = math.sqrt(max(config.window_m[1] ** 2 - altitude_m**2, 1e-9))
-    near = config.min_ground_range_over_altitude * altitude_m
+    near = float(config.zone_start_m(altitude_m))
     return 0.5 * (math.atan2(altitude_m, far) + math.atan2(altitude_m, max(near, 1e-9)))
 
 

@@ -19,6 +19,9 @@ slope_deg = 1.0                  # optional, default 0
 slope_direction_deg = 90.0       # optional: compass direction in which the seabed deepens
 material = "sand"                # optional, default sand
 relief = { amplitude_m = 0.03, wavelength_m = 6.0, seed = 1, components = 6 }  # optional
+texture_db = 3.0                 # optional: persistent reflectivity texture, std in dB (0/absent: off)
+texture_scale_m = 0.1            # optional: its correlation length, m (default 0.1)
+texture_seed = 0                 # optional: its seed (default 0)
 
 [materials.steel]                # optional extra materials
 backscatter_db = -8.0
@@ -67,13 +70,17 @@ from pathlib import Path
 from typing import Any
 
 from sim_harness.scene_errors import SceneError, WorldError
+from sim_harness.seabed_texture import SeabedTexture
 from sim_harness.world import MATERIALS, SHAPES, Material, Relief, Seabed, TargetSpec, World
 
 #: Built-in scene names and their files under ``sim_harness/data/scenes``.
 BUILTIN = {"paper-tank": "paper-tank.toml", "open-seabed": "open-seabed.toml"}
 
 _TOP_KEYS = {"name", "description", "include", "origin", "seabed", "materials", "targets", "viewpoint", "sonar"}
-_SEABED_KEYS = {"depth_m", "slope_deg", "slope_direction_deg", "material", "relief"}
+_SEABED_KEYS = {"depth_m", "slope_deg", "slope_direction_deg", "material", "relief", "texture_db",
+                "texture_scale_m", "texture_seed"}
+#: Correlation length of the seabed texture when a scene gives none, m.
+DEFAULT_TEXTURE_SCALE_M = 0.1
 _RELIEF_KEYS = {"amplitude_m", "wavelength_m", "seed", "components"}
 _MATERIAL_KEYS = {"backscatter_db", "roughness"}
 _TARGET_KEYS = {"id", "shape", "north_m", "east_m", "length_m", "width_m", "diameter_m", "height_m",
@@ -208,9 +215,30 @@ def _parse_relief(ctx: _Ctx, value: Any) -> Relief:
         raise ctx.fail(exc.key, str(exc).split(": ", 1)[-1]) from exc
 
 
+def _parse_texture(ctx: _Ctx, t: dict[str, Any]) -> SeabedTexture | None:
+    """The [seabed] table's texture keys: None when ``texture_db`` is absent or 0."""
+    if "texture_db" not in t:
+        for name in ("texture_scale_m", "texture_seed"):
+            if name in t:
+                raise ctx.fail(f"seabed.{name}", "needs seabed.texture_db (the texture's strength, dB)")
+        return None
+    std_db = ctx.number(t, "texture_db", "seabed", nonneg=True)
+    scale_m = ctx.number(t, "texture_scale_m", "seabed", default=DEFAULT_TEXTURE_SCALE_M, positive=True)
+    seed = ctx.integer(t, "texture_seed", "seabed", 0)
+    if seed < 0:
+        raise ctx.fail("seabed.texture_seed", f"must be >= 0, got {seed}")
+    if std_db == 0.0:
+        return None
+    try:
+        return SeabedTexture(std_db=std_db, correlation_m=scale_m, seed=seed)
+    except WorldError as exc:
+        raise ctx.fail(exc.key, str(exc).split(": ", 1)[-1]) from exc
+
+
 def _parse_seabed(ctx: _Ctx, value: Any) -> Seabed:
     t = ctx.table(value, "seabed", _SEABED_KEYS)
     relief = _parse_relief(ctx, t["relief"]) if "relief" in t else None
+    texture = _parse_texture(ctx, t)
     try:
         return Seabed(
             depth_m=ctx.number(t, "depth_m", "seabed", positive=True),
@@ -218,6 +246,7 @@ def _parse_seabed(ctx: _Ctx, value: Any) -> Seabed:
             slope_direction_rad=math.radians(ctx.number(t, "slope_direction_deg", "seabed", default=0.0)),
             material=ctx.string(t, "material", "seabed", "sand"),
             relief=relief,
+            texture=texture,
         )
     except WorldError as exc:
         raise ctx.fail(exc.key, str(exc).split(": ", 1)[-1]) from exc

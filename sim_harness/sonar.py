@@ -4,13 +4,16 @@ Defaults are an ARIS Explorer 3000 in its 128-beam mode (SDK beam table, 14 deg 
 aperture, 3 MHz, window 0.7-3.0 m with 1000 samples); any other forward-looking sonar is
 set by :class:`SonarConfig`.
 
-Pipeline per frame (geometry in :mod:`sim_harness.sonar_geometry`, targets in
-:mod:`sim_harness.sonar_targets`):
+Pipeline per frame (geometry in :mod:`sim_harness.sonar_geometry`, the seabed in
+:mod:`sim_harness.sonar_seabed`, targets in :mod:`sim_harness.sonar_targets`):
 
 1. the seabed's echo per (range cell, beam), analytic: the exact elevation interval of
    each cell's seabed, weighted by the elevation beam pattern
    ``exp(ln(10)/10 * edge_db * (e/A)^2)`` (``edge_db`` at the aperture edge ``A``, zero
-   outside), the material's scattering at the incidence angle, the footprint and 1/r^2;
+   outside), the material's scattering at the incidence angle, the footprint and 1/r^2,
+   times the seabed's persistent reflectivity texture at the cell's ground point when the
+   world has one (:mod:`sim_harness.seabed_texture`; fixed in north/east, so it stays put
+   from ping to ping while the speckle of step 5 does not);
 2. targets: beam-axis rays on a fine elevation grid; the nearest hit wins, so the seabed
    inside each occluded (edge-refined) elevation interval is removed -- shadows come from
    occlusion -- and target hits add echo at their ranges;
@@ -45,7 +48,8 @@ import numpy as np
 from perception.beams import aris3000_128
 from perception.frame import SonarFrame
 from sim_harness.scene_errors import PoseError, SonarConfigError
-from sim_harness.sonar_geometry import pose_geometry, seabed_branches
+from sim_harness.sonar_geometry import pose_geometry, target_table
+from sim_harness.sonar_seabed import seabed_branches
 from sim_harness.sonar_targets import (
     Sampling,
     cast_all,
@@ -375,6 +379,7 @@ class SonarRenderer:
             self._speckle_bank = np.ones(0, dtype=np.float32)
         self._noise_bank = bank_rng.standard_exponential(n, dtype=np.float32)
         self._noise_mean = 0.0 if cfg.noise_floor_db is None else 10.0 ** (cfg.noise_floor_db / 10.0)
+        self._targets = target_table(world)
         self._sampling = Sampling(
             n_samples=cfg.samples_per_beam,
             n_beams=cfg.n_beams,
@@ -474,7 +479,7 @@ class SonarRenderer:
             pattern_coeff=self._pattern_coeff,
             footprint=self._footprint,
         )
-        casts = cast_all(self.world, geo, self._sampling)
+        casts = cast_all(self.world, geo, self._sampling, self._targets)
         if casts:
             batch = ray_batch(casts)
             runs = occlusion_runs(self.world, geo, casts, batch)
@@ -496,7 +501,9 @@ class SonarRenderer:
             if cells.size:
                 local = cells - branch.row0 * n_b
                 seabed_flat[cells] -= branch.power.ravel()[local] * gone / branch.span.ravel()[local]
-        np.maximum(seabed, 0.0, out=seabed)  # rounding of a fully hidden cell
+        for cells, _ in hidden:  # rounding of a fully hidden cell (elsewhere the echo is >= 0)
+            if cells.size:
+                seabed_flat[cells] = np.maximum(seabed_flat[cells], np.float32(0.0))
 
         labels = (span > 0).view(np.uint8) * np.uint8(Label.SEABED)
         labels_flat = labels.ravel()

@@ -1,16 +1,13 @@
-"""Geometry core of the sonar renderer: the analytic seabed and ray casting at targets.
+"""Geometry core of the sonar renderer: per-pose geometry and ray casting at targets.
 
 Conventions of :mod:`perception.geometry`: a ray of beam azimuth ``a`` and elevation ``e``
 (positive down) points along ``(cos e cos a, cos e sin a, sin e)`` in the sonar frame and
 ``R @ that`` in NED, ``R = sonar_to_ned(tilt, pitch, roll, heading)``.
 
-The seabed plane (no relief) is ``z = depth_m + g_n n + g_e e``. With ``c = (-g_n, -g_e, 1)``
-a ray ``d`` from the sonar ``S`` meets it at ``t = H_v / (c . d)``, ``H_v`` the vertical height
-of the sonar above the plane. Within the plane of one beam (all elevations at azimuth
-``a``), ``c . d = rho cos(e - phi)``, so the seabed at slant range ``r`` lies at the two
-elevations ``e = phi +/- arccos(H_v / (rho r))`` ("branches"). Each range cell's seabed is
-therefore an exact elevation interval per branch: no rays, no holes. Relief shifts each
-range by ``h / (c . d)`` (a two-step fixed point, on a coarse range grid, interpolated).
+The seabed plane (no relief) is ``z = depth_m + g_n n + g_e e``; with ``c = (-g_n, -g_e, 1)``
+a ray ``d`` from the sonar meets it at ``t = H_v / (c . d)``, ``H_v`` the vertical height of
+the sonar above the plane; within one beam plane ``c . d = rho cos(e - phi)``
+(:class:`PoseGeometry`). The analytic seabed echo is in :mod:`sim_harness.sonar_seabed`.
 
 Targets are ray cast on a global elevation grid ``e_k = k * step`` per beam axis; the
 nearest hit (target or seabed) wins. Near a target the seabed is the tangent plane of the
@@ -28,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from perception.geometry import sonar_to_ned
+from sim_harness.shapes import intersect_batch, solid_kinds
 from sim_harness.world import PlacedTarget, World
 
 FloatArray = np.ndarray
@@ -36,8 +34,6 @@ FloatArray = np.ndarray
 REFINE_SPLIT = 32
 #: Most elevation rays cast per beam at one target.
 MAX_RAYS_PER_BEAM = 600
-#: Coarse range step (in cells) on which relief corrections are evaluated.
-RELIEF_STRIDE = 32
 
 
 def dot3(a: FloatArray, b: FloatArray) -> FloatArray:
@@ -119,17 +115,34 @@ class LocalSeabed:
 
 def local_seabed(world: World, geo: PoseGeometry, placed: PlacedTarget) -> LocalSeabed:
     """:class:`LocalSeabed` around ``placed`` for the sonar of ``geo``."""
-    relief = world.seabed.relief
-    if relief is None:
-        return LocalSeabed(geo.c_vec, geo.height_v_m)
+    return _local_plane(world, placed).for_sonar(geo.origin_ned)
+
+
+@dataclass(frozen=True)
+class _LocalPlane:
+    """The seabed's tangent plane at a target's centre: depth ``depth0_m`` there, gradient
+    (``gn``, ``ge``) (d depth / d north, d depth / d east)."""
+
+    north_m: float
+    east_m: float
+    depth0_m: float
+    gn: float
+    ge: float
+
+    def for_sonar(self, sonar_ned: FloatArray) -> LocalSeabed:
+        plane_at_sonar = (self.depth0_m + self.gn * (sonar_ned[0] - self.north_m)
+                          + self.ge * (sonar_ned[1] - self.east_m))
+        return LocalSeabed(np.array([-self.gn, -self.ge, 1.0]), float(plane_at_sonar - sonar_ned[2]))
+
+
+def _local_plane(world: World, placed: PlacedTarget) -> _LocalPlane:
     n0, e0 = placed.spec.north_m, placed.spec.east_m
     gn, ge = world.seabed.gradient
+    relief = world.seabed.relief
+    if relief is None:
+        return _LocalPlane(0.0, 0.0, world.seabed.depth_m, gn, ge)
     rn, re = relief.gradient(n0, e0)
-    gn_l, ge_l = gn - float(rn), ge - float(re)
-    depth0 = world.seabed_depth_m(n0, e0)
-    sonar = geo.origin_ned
-    plane_at_sonar = depth0 + gn_l * (sonar[0] - n0) + ge_l * (sonar[1] - e0)
-    return LocalSeabed(np.array([-gn_l, -ge_l, 1.0]), float(plane_at_sonar - sonar[2]))
+    return _LocalPlane(n0, e0, world.seabed_depth_m(n0, e0), gn - float(rn), ge - float(re))
 
 
 def seabed_slant_m(world: World, geo: PoseGeometry, directions: FloatArray, *, iterations: int = 3) -> FloatArray:
@@ -152,152 +165,6 @@ def seabed_slant_m(world: World, geo: PoseGeometry, directions: FloatArray, *, i
         p = geo.origin_ned + t[..., None] * directions
         t = np.where(finite, t_plane - relief.height_m(p[..., 0], p[..., 1]) / kk, 0.0)
     return np.where(finite, t, np.inf)
-
-
-@dataclass(frozen=True, eq=False)
-class SeabedBranch:
-    """One branch of the analytic seabed on range cells ``row0 .. row0 + n - 1`` x all beams.
-
-    ``lo``/``hi``: elevation interval of each range cell's seabed clipped to the aperture
-    (``hi <= lo`` when empty), rad; ``span``: ``max(hi - lo, 0)``; ``power``: unoccluded echo
-    (beam pattern x scattering x footprint / r^2; no gain, no absorption), linear. Arrays
-    have shape (n, n_beams), float32; cells outside the rows hold no seabed of this branch.
-    """
-
-    sign: int
-    row0: int
-    lo: np.ndarray
-    hi: np.ndarray
-    span: np.ndarray
-    power: np.ndarray
-
-    @property
-    def rows(self) -> slice:
-        """The slice of full-image rows the arrays cover."""
-        return slice(self.row0, self.row0 + self.span.shape[0])
-
-
-def _interp_rows(coarse: FloatArray, stride: int, n_rows: int) -> FloatArray:
-    """Linear interpolation onto rows 0..n_rows-1 of values given every ``stride`` rows."""
-    x = np.arange(n_rows)
-    i = x // stride
-    f = ((x % stride) / stride).astype(coarse.dtype)[:, None]
-    j = np.minimum(i + 1, coarse.shape[0] - 1)
-    return np.asarray(coarse[i] + (coarse[j] - coarse[i]) * f)
-
-
-def _branch_rows(
-    geo: PoseGeometry, sign: int, half_aperture_rad: float, range_edges_m: FloatArray, pad: int
-) -> tuple[int, int] | None:
-    """Cell rows [i0, i1) where this branch can lie inside the aperture, or None."""
-    u_lo = -half_aperture_rad - geo.phi  # e - phi over the aperture
-    u_hi = half_aperture_rad - geo.phi
-    if sign > 0:
-        a, b = np.maximum(u_lo, 0.0), np.minimum(u_hi, math.pi / 2)
-    else:
-        a, b = np.maximum(-u_hi, 0.0), np.minimum(-u_lo, math.pi / 2)
-    ok = b > a
-    if not np.any(ok):
-        return None
-    with np.errstate(divide="ignore"):
-        r_min = geo.height_v_m / (geo.rho[ok] * np.cos(a[ok]))
-        r_max = geo.height_v_m / (geo.rho[ok] * np.maximum(np.cos(b[ok]), 0.0))
-    dr = float(range_edges_m[1] - range_edges_m[0])
-    n = range_edges_m.size - 1
-    i0 = int(np.clip(math.floor((float(r_min.min()) - range_edges_m[0]) / dr) - 1 - pad, 0, n))
-    far = float(r_max.max())
-    i1 = n if not math.isfinite(far) else int(np.clip(math.ceil((far - range_edges_m[0]) / dr) + 1 + pad, 0, n))
-    return (i0, i1) if i1 > i0 else None
-
-
-def seabed_branches(
-    world: World,
-    geo: PoseGeometry,
-    *,
-    range_edges_m: FloatArray,
-    range_centres_m: FloatArray,
-    half_aperture_rad: float,
-    pattern_coeff: float,
-    footprint: np.ndarray,
-) -> list[SeabedBranch]:
-    """The seabed's echo per range cell and beam, per branch that reaches the aperture.
-
-    ``pattern_coeff``: the elevation beam pattern is ``exp(pattern_coeff * (e / A)^2)`` inside
-    the half aperture ``A`` and zero outside; ``footprint`` (n_samples, n_beams) is the beam
-    width over r^2 of each cell times any per-row gain. Heavy arithmetic runs in float32.
-    """
-    material = world.material(world.seabed.material)
-    relief = world.seabed.relief
-    dr = float(range_edges_m[1] - range_edges_m[0])
-    pad = math.ceil(6.0 * relief.amplitude_m / dr) if relief is not None else 0
-    f32 = np.float32
-    branches = []
-    for sign in (-1, 1):
-        span_rows = _branch_rows(geo, sign, half_aperture_rad, range_edges_m, pad)
-        if span_rows is None:
-            continue
-        i0, i1 = span_rows
-        edges = range_edges_m[i0:i1 + 1]
-        n_e = edges.size
-        scale = (geo.height_v_m / geo.rho).astype(f32)
-        if relief is None:
-            ratio = scale[None, :] * (1.0 / edges).astype(f32)[:, None]
-            extra_cos = None
-        else:
-            beams = np.arange(geo.rho.size)
-            n_c = max(2, (n_e - 1 + RELIEF_STRIDE - 1) // RELIEF_STRIDE + 1)
-            r_c = edges[0] + np.arange(n_c) * (RELIEF_STRIDE * dr)
-            corr = np.zeros((n_c, geo.rho.size))
-            for _ in range(2):  # fixed point: the ray whose relief hit lies at range r_c
-                x0 = np.minimum(geo.height_v_m / (geo.rho[None, :] * (r_c[:, None] + corr)), 1.0)
-                e_c = geo.phi + sign * np.arccos(x0)
-                d = geo.directions(beams[None, :], e_c)
-                p = geo.origin_ned + r_c[:, None, None] * d
-                k = dot3(d, geo.c_vec)
-                h = relief.height_m(p[..., 0], p[..., 1])
-                corr = np.where(k > 1e-6, h / np.maximum(k, 1e-6), 0.0)
-            gn_r, ge_r = relief.gradient(p[..., 0], p[..., 1])
-            shift = _interp_rows(corr.astype(f32), RELIEF_STRIDE, n_e)
-            ratio = scale[None, :] / (edges.astype(f32)[:, None] + shift)
-            extra_cos = _interp_rows((gn_r * d[..., 0] + ge_r * d[..., 1]).astype(f32), RELIEF_STRIDE, n_e)
-        ratio = np.minimum(ratio, f32(1.0))
-        acos = np.arccos(ratio)
-        phi = geo.phi.astype(f32)
-        edges_e = phi + acos if sign > 0 else phi - acos
-        ha = f32(half_aperture_rad)
-        np.maximum(edges_e, -ha, out=edges_e)
-        np.minimum(edges_e, ha, out=edges_e)
-        # along a branch the elevation moves away from phi as the range grows
-        near_e, far_e = edges_e[:-1], edges_e[1:]
-        lo, hi = (near_e, far_e) if sign > 0 else (far_e, near_e)
-        span = hi - lo
-        np.maximum(span, f32(0.0), out=span)
-        mid = lo + hi
-        mid *= f32(0.5)
-        m2 = mid * mid
-        # cos(e - phi) is the ratio at the cell edges: average them (exact to O(dr^2))
-        cos_inc = ratio[:-1] + ratio[1:]
-        cos_inc *= (0.5 * geo.rho / geo.c_norm).astype(f32)
-        if extra_cos is not None:
-            cos_inc += f32(0.5 / geo.c_norm) * (extra_cos[:-1] + extra_cos[1:])
-            np.clip(cos_inc, f32(0.0), f32(1.0), out=cos_inc)
-        if half_aperture_rad <= 0.3:
-            # beam pattern x cos(mid): cos(x) = exp(-x^2 / 2) to 2e-5 for |x| <= 0.15 rad
-            power = np.exp(f32(pattern_coeff / half_aperture_rad**2 - 0.5) * m2)
-        else:
-            power = np.exp(f32(pattern_coeff / half_aperture_rad**2) * m2)
-            power *= np.cos(mid)
-        if material.roughness == 1.0:
-            power *= cos_inc
-            power *= f32(10.0 ** (material.backscatter_db / 10.0))
-        else:
-            power *= material.sigma_over_cos(cos_inc)
-        power *= span
-        power *= footprint[i0:i1]
-        branches.append(SeabedBranch(sign, i0, lo, hi, span, power))
-    return branches
-
-
 @dataclass(frozen=True, eq=False)
 class TargetCast:
     """Rays cast at one target on the block (beams j0..j1-1) x (elevations k0..k1-1)."""
@@ -318,34 +185,53 @@ class TargetCast:
         return np.arange(self.j0, self.j0 + self.t.shape[0])
 
 
-def cast_target(
-    world: World,
-    geo: PoseGeometry,
-    placed: PlacedTarget,
-    *,
-    beam_azimuth_rad: FloatArray,
-    step_rad: float,
-    half_aperture_rad: float,
-    max_range_m: float,
-) -> TargetCast | None:
-    """Cast the beam-axis rays that can meet ``placed``; None if no beam axis can.
+@dataclass(frozen=True, eq=False)
+class TargetTable:
+    """Pose-independent data of a world's targets, built once per renderer.
 
-    The rays span the target's elevation extent in each beam plane (from its bounding
-    corners), so occlusion runs and shadow truth are complete even outside the aperture;
-    only for a target so close that this exceeds MAX_RAYS_PER_BEAM steps is the span cut
-    to the aperture +-10 deg (its truth may then be partial)."""
-    q = (placed.corners_ned - geo.origin_ned) @ geo.rot  # sonar frame
-    if np.all(q[:, 0] <= 0) or np.min(np.linalg.norm(q, axis=1)) > max_range_m:
-        return None
-    if np.all(q[:, 0] > 0):
-        az = np.arctan2(q[:, 1], q[:, 0])
-        inside = np.nonzero((beam_azimuth_rad >= az.min()) & (beam_azimuth_rad <= az.max()))[0]
-    else:
-        inside = np.arange(beam_azimuth_rad.size)
-    if inside.size == 0:
-        return None
-    j0, j1 = int(inside[0]), int(inside[-1]) + 1
-    a = beam_azimuth_rad[j0:j1]
+    ``corners`` (n, 3) all targets' bounding corners end to end, NED m, ``corner_start``
+    (n_targets + 1,) where each target's begin; ``planes`` the seabed's tangent plane at
+    each target's centre.
+    """
+
+    corners: FloatArray
+    corner_start: np.ndarray
+    planes: tuple[_LocalPlane, ...]
+
+
+def target_table(world: World) -> TargetTable:
+    """:class:`TargetTable` of ``world``."""
+    counts = [p.corners_ned.shape[0] for p in world.placed]
+    corners = np.concatenate([p.corners_ned for p in world.placed]) if counts else np.zeros((0, 3))
+    return TargetTable(corners, np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+                       tuple(_local_plane(world, p) for p in world.placed))
+
+
+def _beam_spans(
+    table: TargetTable, q_all: FloatArray, beam_azimuth_rad: FloatArray, max_range_m: float
+) -> list[tuple[int, int, int]]:
+    """(target index, j0, j1) of every target some beam axis [j0, j1) can meet, from the
+    sonar-frame corners ``q_all`` (n, 3) of all targets (in one pass over them all)."""
+    starts = table.corner_start[:-1]
+    if starts.size == 0:
+        return []
+    x = q_all[:, 0]
+    max_x = np.maximum.reduceat(x, starts)
+    min_x = np.minimum.reduceat(x, starts)
+    near = np.minimum.reduceat(np.linalg.norm(q_all, axis=1), starts)
+    az = np.arctan2(q_all[:, 1], x)
+    lo = np.searchsorted(beam_azimuth_rad, np.minimum.reduceat(az, starts), side="left")
+    hi = np.searchsorted(beam_azimuth_rad, np.maximum.reduceat(az, starts), side="right")
+    # a target straddling the sonar's y-z plane may meet any beam
+    lo = np.where(min_x > 0, lo, 0)
+    hi = np.where(min_x > 0, hi, beam_azimuth_rad.size)
+    ok = (max_x > 0) & (near <= max_range_m) & (hi > lo)
+    return [(int(i), int(lo[i]), int(hi[i])) for i in np.nonzero(ok)[0]]
+
+
+def _elevation_steps(q: FloatArray, a: FloatArray, step_rad: float, half_aperture_rad: float) -> tuple[int, int] | None:
+    """Elevation steps [k0, k1) whose rays in the beams of azimuths ``a`` can meet a target
+    with sonar-frame corners ``q`` (n, 3); None if none can."""
     denom = q[:, 0:1] * np.cos(a) + q[:, 1:2] * np.sin(a)  # (n_corners, n_j)
     if np.all(denom > 0):
         elev = np.arctan2(q[:, 2:3], denom)
@@ -361,17 +247,66 @@ def cast_target(
         k1 = min(k1, k0 + MAX_RAYS_PER_BEAM)
         if k1 <= k0:
             return None
-    elevation = np.arange(k0, k1) * step_rad
-    beams = np.arange(j0, j1)
-    d = geo.directions(beams[:, None], elevation[None, :])
-    flat_d = d.reshape(-1, 3)
-    t, normal = placed.solid.intersect(geo.origin_ned, flat_d)
-    cos_inc = -dot3(normal, flat_d)
-    shape = (j1 - j0, k1 - k0)
-    t = t.reshape(shape)
-    seabed = local_seabed(world, geo, placed)
-    t_sb = seabed.slant_m(d)
+    return k0, k1
+
+
+def cast_targets(
+    world: World,
+    geo: PoseGeometry,
+    table: TargetTable,
+    *,
+    beam_azimuth_rad: FloatArray,
+    step_rad: float,
+    half_aperture_rad: float,
+    max_range_m: float,
+) -> list[TargetCast]:
+    """Cast the beam-axis rays that can meet each target, all targets in one batch; a
+    :class:`TargetCast` per target that occludes the seabed somewhere, in the world's order.
+
+    Per target, the rays span its elevation extent in each beam plane (from its bounding
+    corners), so occlusion runs and shadow truth are complete even outside the aperture;
+    only for a target so close that this exceeds MAX_RAYS_PER_BEAM steps is the span cut
+    to the aperture +-10 deg (its truth may then be partial)."""
+    q_all = (table.corners - geo.origin_ned) @ geo.rot  # sonar frame
+    blocks = []
+    for i, j0, j1 in _beam_spans(table, q_all, beam_azimuth_rad, max_range_m):
+        ks = _elevation_steps(q_all[table.corner_start[i]:table.corner_start[i + 1]], beam_azimuth_rad[j0:j1],
+                              step_rad, half_aperture_rad)
+        if ks is not None:
+            blocks.append((i, j0, j1, *ks))
+    if not blocks:
+        return []
+    # blocks of one kind of solid next to each other: intersect_batch then slices, not copies
+    kind = solid_kinds([world.placed[b[0]].solid for b in blocks])
+    blocks = [blocks[i] for i in np.argsort(kind, kind="stable")]
+    # every block's rays end to end: (target block, beam, elevation step)
+    n_j = np.array([j1 - j0 for _, j0, j1, _, _ in blocks])
+    n_k = np.array([k1 - k0 for _, _, _, k0, k1 in blocks])
+    size = n_j * n_k
+    which = np.repeat(np.arange(len(blocks)), size)
+    start = np.cumsum(size) - size
+    d = np.empty((int(size.sum()), 3))
+    for b, (_, j0, j1, k0, k1) in enumerate(blocks):  # geo.directions on each block's grid
+        elevation = np.arange(k0, k1) * step_rad
+        grid = d[int(start[b]):int(start[b] + size[b])].reshape(j1 - j0, k1 - k0, 3)
+        np.multiply(np.cos(elevation)[None, :, None], geo.horiz[j0:j1, None, :], out=grid)
+        grid += np.sin(elevation)[None, :, None] * geo.rot[:, 2]
+    placed = [world.placed[b[0]] for b in blocks]
+    t, normal = intersect_batch([p.solid for p in placed], which, geo.origin_ned, d)
+    cos_inc = -dot3(normal, d)
+    seabeds = [table.planes[b[0]].for_sonar(geo.origin_ned) for b in blocks]
+    c_vec = np.array([sb.c_vec for sb in seabeds])[which]
+    height = np.array([sb.height_m for sb in seabeds])[which]
+    kc = dot3(d, c_vec)
+    with np.errstate(divide="ignore"):
+        t_sb = np.where(kc > 0, height / np.where(kc > 0, kc, 1.0), np.inf)
     occluding = t < t_sb
-    if not np.any(occluding):
-        return None
-    return TargetCast(placed, seabed, j0, k0, elevation, t, cos_inc.reshape(shape), t_sb, occluding)
+    casts = []
+    for b, (_, j0, j1, k0, k1) in enumerate(blocks):
+        sl = slice(int(start[b]), int(start[b] + size[b]))
+        if not np.any(occluding[sl]):
+            continue
+        shape = (j1 - j0, k1 - k0)
+        casts.append(TargetCast(placed[b], seabeds[b], j0, k0, np.arange(k0, k1) * step_rad, t[sl].reshape(shape),
+                                cos_inc[sl].reshape(shape), t_sb[sl].reshape(shape), occluding[sl].reshape(shape)))
+    return casts

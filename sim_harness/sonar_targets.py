@@ -4,10 +4,10 @@ Pure functions used by :class:`sim_harness.sonar.SonarRenderer`; geometry and co
 in :mod:`sim_harness.sonar_geometry`. Images are (n_samples, n_beams); "flat" image indices
 are ``row * n_beams + column``.
 
-After each target's rays are cast (:func:`sim_harness.sonar_geometry.cast_target`), every
-later step runs on all targets at once: the casts are laid end to end in one
-:class:`RayBatch` (each block row followed by one padding ray, so runs never cross rows);
-only the ray-solid intersections of the edge refinement go target by target.
+All targets' rays are cast in one batch (:func:`sim_harness.sonar_geometry.cast_targets`;
+ray-solid intersections by kind of solid, :func:`sim_harness.shapes.intersect_batch`), and
+every later step runs on all targets at once: the casts are laid end to end in one
+:class:`RayBatch` (each block row followed by one padding ray, so runs never cross rows).
 """
 
 from __future__ import annotations
@@ -18,18 +18,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim_harness.scene_errors import SonarConfigError
+from sim_harness.shapes import intersect_batch, solid_kinds
 from sim_harness.sonar_geometry import (
     REFINE_SPLIT,
     PoseGeometry,
-    SeabedBranch,
     TargetCast,
-    cast_target,
+    TargetTable,
+    cast_targets,
+    dot3,
     seabed_slant_m,
+    target_table,
 )
+from sim_harness.sonar_seabed import SeabedBranch
 from sim_harness.truth import TargetTruth
 from sim_harness.world import SPECULAR_GAIN, SPECULAR_WIDTH_RAD, World
 
 FloatArray = np.ndarray
+
+#: Occlusion edges are refined on every REFINE_COARSE-th of the REFINE_SPLIT grid first.
+REFINE_COARSE = 8
 
 #: On a rock, consecutive hits farther apart than this many range cells lie on different
 #: lobes and are not joined.
@@ -59,21 +66,20 @@ class Sampling:
     row_gain: np.ndarray
 
 
-def cast_all(world: World, geo: PoseGeometry, sp: Sampling) -> list[TargetCast]:
-    """Cast rays at every target a beam axis can meet, nearest first (the truth's order)."""
-    casts = []
-    for placed in world.placed:
-        cast = cast_target(
-            world,
-            geo,
-            placed,
-            beam_azimuth_rad=sp.azimuth_rad,
-            step_rad=sp.ray_step_rad,
-            half_aperture_rad=sp.half_aperture_rad,
-            max_range_m=sp.window_end_m,
-        )
-        if cast is not None:
-            casts.append(cast)
+def cast_all(world: World, geo: PoseGeometry, sp: Sampling, table: TargetTable | None = None) -> list[TargetCast]:
+    """Cast rays at every target a beam axis can meet, nearest first (the truth's order).
+
+    ``table``: the world's :func:`~sim_harness.sonar_geometry.target_table` (built here when
+    not given; a renderer builds it once)."""
+    casts = cast_targets(
+        world,
+        geo,
+        table if table is not None else target_table(world),
+        beam_azimuth_rad=sp.azimuth_rad,
+        step_rad=sp.ray_step_rad,
+        half_aperture_rad=sp.half_aperture_rad,
+        max_range_m=sp.window_end_m,
+    )
     casts.sort(key=lambda c: float(np.min(np.where(c.occluding, c.t, np.inf))))
     if len(casts) > 255:
         raise SonarConfigError(f"{len(casts)} targets in view; at most 255 are labelled", key="targets")
@@ -143,7 +149,13 @@ class Runs:
 
 
 def occlusion_runs(world: World, geo: PoseGeometry, casts: list[TargetCast], batch: RayBatch) -> Runs:
-    """Find every occluded run and refine both its edges to 1 / REFINE_SPLIT of a ray step."""
+    """Find every occluded run and refine both its edges to 1 / REFINE_SPLIT of a ray step.
+
+    Each edge's bracket [inner occluded ray, outer free ray] is searched for the first free
+    candidate on the grid ``i / REFINE_SPLIT`` in two rounds: every REFINE_COARSE-th
+    candidate, then the REFINE_COARSE - 1 before the first free one (the same candidate a
+    scan of all REFINE_SPLIT - 1 finds whenever the bracket changes from occluded to free
+    once, i.e. unless a sliver of a target thinner than 1/4 of a ray step lies in it)."""
     occ = batch.occluding
     step = np.diff(np.concatenate([[0], occ.view(np.int8), [0]]))
     first = np.nonzero(step == 1)[0]
@@ -159,29 +171,27 @@ def occlusion_runs(world: World, geo: PoseGeometry, casts: list[TargetCast], bat
     e_in, e_out = batch.e[inner], batch.e[outer]
     target = batch.target[inner]
     beam = batch.beam[inner]
-    frac = np.arange(1, REFINE_SPLIT) / REFINE_SPLIT
-    cand = e_in[:, None] + (e_out - e_in)[:, None] * frac
-    d = geo.directions(np.repeat(beam, frac.size), cand.ravel())
-    occ_c = np.zeros(d.shape[0], dtype=bool)
-    t_c = np.full(d.shape[0], np.inf)
-    tsb_c = np.full(d.shape[0], np.inf)
-    ray_target = np.repeat(target, frac.size)
-    order = np.argsort(ray_target, kind="stable")
-    bounds = np.searchsorted(ray_target[order], np.arange(len(casts) + 1))
-    for i, c in enumerate(casts):
-        idx = order[bounds[i]:bounds[i + 1]]
-        if idx.size == 0:
-            continue
-        t_i, _ = c.placed.solid.intersect(geo.origin_ned, d[idx], normals=False)
-        tsb_i = c.seabed.slant_m(d[idx])
-        t_c[idx], tsb_c[idx], occ_c[idx] = t_i, tsb_i, t_i < tsb_i
+    probe = _Probe(geo, casts, e_in, e_out, beam, target)
+    # first free candidate on the grid i / REFINE_SPLIT (i = 1 .. REFINE_SPLIT - 1; the outer ray
+    # is free) in two rounds: every REFINE_COARSE-th, then the ones before the first free of those
     m = inner.size
     rows = np.arange(m)
-    ext_occ = np.concatenate([np.ones((m, 1), bool), occ_c.reshape(m, -1), np.zeros((m, 1), bool)], axis=1)
-    pick = np.argmin(ext_occ, axis=1) - 2  # last occluded candidate; -1: the inner ray
-    cand_e = cand[rows, np.maximum(pick, 0)]
-    cand_t = t_c.reshape(m, -1)[rows, np.maximum(pick, 0)]
-    cand_tsb = tsb_c.reshape(m, -1)[rows, np.maximum(pick, 0)]
+    coarse_i = np.arange(REFINE_COARSE, REFINE_SPLIT, REFINE_COARSE)
+    e1, t1, tsb1, occ1 = probe(np.broadcast_to(coarse_i, (m, coarse_i.size)))
+    f1 = np.argmin(np.concatenate([occ1, np.zeros((m, 1), bool)], axis=1), axis=1)
+    free1 = REFINE_COARSE * (f1 + 1)  # first free coarse index (REFINE_SPLIT: the outer ray)
+    fine_i = free1[:, None] - REFINE_COARSE + 1 + np.arange(REFINE_COARSE - 1)
+    e2, t2, tsb2, occ2 = probe(fine_i)
+    f2 = np.argmin(np.concatenate([occ2, np.zeros((m, 1), bool)], axis=1), axis=1)
+    # the last occluded candidate: the fine one before the first free, else the coarse one
+    # below the fine run (or, at index 0, the inner ray: pick < 0)
+    in_fine = f2 > 0
+    c_prev = np.maximum(f1 - 1, 0)
+    f_prev = np.maximum(f2 - 1, 0)
+    pick = np.where(in_fine, 0, f1 - 1)
+    cand_e = np.where(in_fine, e2[rows, f_prev], e1[rows, c_prev])
+    cand_t = np.where(in_fine, t2[rows, f_prev], t1[rows, c_prev])
+    cand_tsb = np.where(in_fine, tsb2[rows, f_prev], tsb1[rows, c_prev])
     use = pick >= 0
     edge_e = np.where(use, cand_e, e_in)
     edge_t = np.where(use, cand_t, batch.t[inner])
@@ -194,6 +204,36 @@ def occlusion_runs(world: World, geo: PoseGeometry, casts: list[TargetCast], bat
     t_min = np.minimum(t_min, np.minimum(edge_t[:n], edge_t[n:]))  # a refined edge may lie nearer
     return Runs(target[:n], beam[:n], first, last, edge_e[:n], edge_e[n:], edge_t[:n], edge_t[n:],
                 edge_tsb[:n], edge_tsb[n:], t_min)
+
+
+class _Probe:
+    """Casts refinement rays: candidate ``i`` of bracket ``b`` lies at elevation
+    ``e_in[b] + (e_out[b] - e_in[b]) * i / REFINE_SPLIT`` in ``beam[b]``, at cast ``target[b]``."""
+
+    def __init__(self, geo: PoseGeometry, casts: list[TargetCast], e_in: FloatArray, e_out: FloatArray,
+                 beam: np.ndarray, target: np.ndarray):
+        self.solids = [c.placed.solid for c in casts]
+        # brackets ordered by kind of solid, so that intersect_batch slices instead of copying
+        self.order = np.argsort(solid_kinds(self.solids)[target], kind="stable")
+        self.back = np.argsort(self.order)
+        o = self.order
+        self.geo, self.e_in, self.span, self.beam, self.target = geo, e_in[o], (e_out - e_in)[o], beam[o], target[o]
+        self.c_vec = np.array([c.seabed.c_vec for c in casts])
+        self.height = np.array([c.seabed.height_m for c in casts])
+
+    def __call__(self, index: np.ndarray) -> tuple[FloatArray, FloatArray, FloatArray, np.ndarray]:
+        """(elevation, target hit, seabed hit, occluded) of candidates ``index`` (m, c)."""
+        index = index[self.order]
+        shape = index.shape
+        cand = self.e_in[:, None] + self.span[:, None] * (index / REFINE_SPLIT)
+        d = self.geo.directions(np.repeat(self.beam, shape[1]), cand.ravel())
+        ray_target = np.repeat(self.target, shape[1])
+        t, _ = intersect_batch(self.solids, ray_target, self.geo.origin_ned, d, normals=False)
+        k = dot3(d, self.c_vec[ray_target])
+        with np.errstate(divide="ignore"):
+            tsb = np.where(k > 0, self.height[ray_target] / np.where(k > 0, k, 1.0), np.inf)
+        b = self.back
+        return cand[b], t.reshape(shape)[b], tsb.reshape(shape)[b], (t < tsb).reshape(shape)[b]
 
 
 def no_runs() -> Runs:
@@ -299,7 +339,8 @@ def target_echo(
     # only the flat range the hits touch: the rest of the image gets no target echo
     first_cell = int(flat.min()) if flat.size else 0
     power = np.bincount(flat - first_cell, weights=w * sp.row_gain[cell, 0])
-    far_first = np.argsort(-batch.target[ray], kind="stable")  # nearer targets overwrite
+    # nearer targets overwrite: a stable sort, farthest first (uint8 keys sort by radix)
+    far_first = np.argsort((len(casts) - 1 - batch.target[ray]).astype(np.uint8), kind="stable")
     owner[flat[far_first]] = (batch.target[ray[far_first]] + 1).astype(np.uint8)
     highlight = np.zeros(n_s * n_b, dtype=bool)
     highlight[flat] = True
@@ -364,19 +405,21 @@ def hidden_seabed(
     if runs.beam.size == 0 or not branches:
         return [empty for _ in branches]
     beam, lo, hi, who = runs.beam, runs.lo, runs.hi, runs.target + 1
+    # merge overlapping intervals per beam: sorted by (beam, lo), an interval starts a new
+    # group unless it begins inside the running maximum of his in its beam (offsetting each
+    # beam's elevations by 4 rad keeps one running maximum from leaking into the next beam)
     order = np.lexsort((lo, beam))
-    merged: list[list[float]] = []
-    mixed = False  # did intervals of different targets merge?
-    for i in order:
-        b, a, z, w = int(beam[i]), float(lo[i]), float(hi[i]), int(who[i])
-        if merged and merged[-1][0] == b and a <= merged[-1][2]:
-            merged[-1][2] = max(merged[-1][2], z)
-            mixed |= merged[-1][3] != w
-            merged[-1][3] = min(merged[-1][3], w)
-        else:
-            merged.append([b, a, z, w])
-    m = np.array(merged)
-    mb, mlo, mhi, mw = m[:, 0].astype(np.int64), m[:, 1], m[:, 2], m[:, 3].astype(np.uint8)
+    b_s, lo_s, hi_s, w_s = beam[order], lo[order], hi[order], who[order]
+    offset = 4.0 * b_s
+    running = np.maximum.accumulate(hi_s + offset)
+    new_group = np.ones(order.size, dtype=bool)
+    new_group[1:] = (b_s[1:] != b_s[:-1]) | (lo_s[1:] + offset[1:] > running[:-1])
+    starts = np.nonzero(new_group)[0]
+    mb, mlo = b_s[starts], lo_s[starts]
+    mhi = np.maximum.reduceat(hi_s, starts)
+    w_min = np.minimum.reduceat(w_s, starts)
+    mixed = bool(np.any(np.maximum.reduceat(w_s, starts) != w_min))  # did different targets merge?
+    mw = w_min.astype(np.uint8)
     relief = world.seabed.relief
     pad = 3 + (math.ceil(6.0 * relief.amplitude_m / sp.range_resolution_m) if relief is not None else 0)
     highlight_flat = highlight.ravel()

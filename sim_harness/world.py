@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sim_harness.scene_errors import WorldError
+from sim_harness.seabed_texture import SeabedTexture
 from sim_harness.shapes import BoxSolid, CompositeSolid, CylinderSolid, EllipsoidSolid, Solid
 
 FloatArray = NDArray[np.float64]
@@ -158,28 +159,57 @@ class Relief:
 
     def height_m(self, north_m: ArrayLike, east_m: ArrayLike) -> FloatArray:
         """Relief height (positive up), m, broadcast over the inputs."""
-        n = np.asarray(north_m, dtype=np.float64)[..., None]
-        e = np.asarray(east_m, dtype=np.float64)[..., None]
-        arg = n * self._k[:, 0] + e * self._k[:, 1] + self._phase
-        return np.asarray(np.sum(self._a * np.cos(arg), axis=-1))
+        n = np.asarray(north_m, dtype=np.float64)
+        e = np.asarray(east_m, dtype=np.float64)
+        # one component at a time on the inputs' shape (summed in component order, as
+        # ``np.sum(..., axis=-1)`` over the few components does): no (..., n) temporaries
+        h = np.zeros(np.broadcast_shapes(n.shape, e.shape))
+        for a, (kn, ke), ph in zip(self._a, self._k, self._phase, strict=True):
+            h += a * np.cos(n * kn + e * ke + ph)
+        return h
 
     def gradient(self, north_m: ArrayLike, east_m: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """(d height / d north, d height / d east), dimensionless."""
-        n = np.asarray(north_m, dtype=np.float64)[..., None]
-        e = np.asarray(east_m, dtype=np.float64)[..., None]
-        s = -self._a * np.sin(n * self._k[:, 0] + e * self._k[:, 1] + self._phase)
-        return np.sum(s * self._k[:, 0], axis=-1), np.sum(s * self._k[:, 1], axis=-1)
+        _, gn, ge = self.height_and_gradient(north_m, east_m)
+        return np.asarray(gn, dtype=np.float64), np.asarray(ge, dtype=np.float64)
+
+    def height_and_gradient(
+        self, north_m: ArrayLike, east_m: ArrayLike, *, dtype: type = np.float64
+    ) -> tuple[NDArray[np.floating], NDArray[np.floating], NDArray[np.floating]]:
+        """(height m, d height / d north, d height / d east) at once, broadcast over the inputs.
+
+        ``dtype`` float32 trades precision for speed (vectorised trigonometry): the phases
+        are off by ~1e-7 of themselves, i.e. the height by ~1e-7 x amplitude x |k| x distance
+        from the origin (~1e-6 m for 5 cm relief 500 m out).
+        """
+        n: NDArray[np.floating] = np.asarray(north_m, dtype=dtype)
+        e: NDArray[np.floating] = np.asarray(east_m, dtype=dtype)
+        shape = np.broadcast_shapes(n.shape, e.shape)
+        h: NDArray[np.floating] = np.zeros(shape, dtype)
+        gn: NDArray[np.floating] = np.zeros(shape, dtype)
+        ge: NDArray[np.floating] = np.zeros(shape, dtype)
+        for a, (kn, ke), ph in zip(self._a, self._k, self._phase, strict=True):
+            a, kn, ke, ph = dtype(a), dtype(kn), dtype(ke), dtype(ph)
+            arg = n * kn + e * ke + ph
+            h += a * np.cos(arg)
+            s = -a * np.sin(arg)
+            gn += s * kn
+            ge += s * ke
+        return h, gn, ge
 
 
 @dataclass(frozen=True)
 class Seabed:
-    """The seabed: a plane through ``depth_m`` at the local origin, plus optional relief."""
+    """The seabed: a plane through ``depth_m`` at the local origin, plus optional relief and
+    an optional persistent reflectivity texture (:class:`~sim_harness.seabed_texture.SeabedTexture`,
+    a gain on the material's backscatter fixed in north/east; None: uniform)."""
 
     depth_m: float
     slope_rad: float = 0.0
     slope_direction_rad: float = 0.0
     material: str = "sand"
     relief: Relief | None = None
+    texture: SeabedTexture | None = None
 
     def __post_init__(self) -> None:
         _finite(self.depth_m, "seabed.depth_m", positive=True)

@@ -18,7 +18,7 @@ DEFAULT_MESSAGE_INTERVALS_S: tuple[tuple[str, float], ...] = (
     ("SCALED_PRESSURE2", 0.2),
     ("DISTANCE_SENSOR", 0.2),
     ("RANGEFINDER", 0.2),
-    ("GIMBAL_DEVICE_ATTITUDE_STATUS", 0.5),
+    ("GIMBAL_DEVICE_ATTITUDE_STATUS", 0.1),
     ("MISSION_CURRENT", 1.0),
     ("SYS_STATUS", 1.0),
 )

@@ -19,11 +19,14 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from perception.geometry import rot_x, rot_y
 from perception.georef import LocalOrigin
 from planner.area import load_area
 from planner.config import Settings, load_settings
 from planner.errors import ConfigError
-from planner.executor import DiveResult, ExecutorConfig, FixedTilt, MissionExecutor, TiltController
+from planner.executor import DiveResult, ExecutorConfig, MissionExecutor, TiltController
 from planner.height_score import score_heights
 from planner.mission_files import write_outputs
 from planner.onboard import OnboardConfig, OnboardPerception
@@ -40,12 +43,17 @@ from sim_harness.sensors import SensorConfig
 from sim_harness.sonar import SonarConfig, SonarRenderer
 from sim_harness.vehicle_sim import VehicleConfig, VehicleSimulator
 from vehicle_link.client import ArduSubClient
-from vehicle_link.config import LinkConfig
+from vehicle_link.config import DEFAULT_MESSAGE_INTERVALS_S, LinkConfig
 
 BUILTIN_SCENARIOS = ("paper-targets",)
+#: The mount's angle report every 0.1 s (the link's default, 0.5 s, leaves the frames'
+#: tilt stamp several degrees behind while the pitch loop slews the mount).
+MOUNT_STATUS_PERIOD_S = 0.1
 #: Shadow-in-view scoring (see :func:`score_against_truth`).
 FOV_MIN_AHEAD_ALTITUDES = 2.0
 FOV_SETTLE_S = 1.0
+#: Tilts tried, rad, when asking whether some tilt within the mount's limits shows a shadow.
+FOV_TILT_STEP_RAD = math.radians(0.1)
 _SCENARIO_KEYS = {"name", "description", "scene", "area", "survey", "vehicle", "executor", "faults", "current",
                   "sensors"}
 
@@ -187,11 +195,12 @@ def _executor_config(scenario: Scenario, settings: Settings) -> ExecutorConfig:
 
 
 def make_tilt_controller(plan: SurveyPlan, settings: Settings, *, closed_loop: bool) -> TiltController:
-    """The pitch loop (closed on the sonar) or the fixed plan tilt."""
-    if not closed_loop:
-        return FixedTilt()
-    from planner.pitch_control import ShadowPitchLoop  # the casadi MPC, built once
+    """The pitch loop (closed on the sonar) or, for the comparison, the fixed tilt that
+    centres the same tracking zone (:class:`planner.pitch_control.ZoneCentredTilt`)."""
+    from planner.pitch_control import ShadowPitchLoop, ZoneCentredTilt  # the casadi MPC, built once
 
+    if not closed_loop:
+        return ZoneCentredTilt(plan, settings)
     return ShadowPitchLoop(plan, settings)
 
 
@@ -235,6 +244,9 @@ def run_dry_dive(
     link_config = LinkConfig(f"udpout:{host}:{port}", max_depth_m=settings.vehicle.max_depth_m,
                              min_clearance_m=settings.vehicle.min_clearance_m,
                              tlog_path=str(run.path("dive.tlog")), link_timeout_s=scenario.link_timeout_s,
+                             message_intervals_s=tuple(
+                                 (name, MOUNT_STATUS_PERIOD_S if name == "GIMBAL_DEVICE_ATTITUDE_STATUS" else period)
+                                 for name, period in DEFAULT_MESSAGE_INTERVALS_S),
                              heartbeat_period_s=0.5)
     onboard = OnboardPerception(OnboardConfig(specific_gravity=1.0))
     tilt = make_tilt_controller(plan, settings, closed_loop=scenario.pitch_loop)
@@ -277,7 +289,8 @@ def run_dry_dive(
     products = write_products(run, executor, origin, final=True,
                               truth_points=tuple((t.north_m, t.east_m, t.height_m) for t in scene.world.targets))
     truth_extra = score_against_truth(run, sim, settings, result, products.targets,
-                                      n_beams=renderer.config.n_beams, truth_targets=scene.world.targets)
+                                      n_beams=renderer.config.n_beams, truth_targets=scene.world.targets,
+                                      beam_azimuth_rad=renderer.config.beam_azimuth_rad, plan=plan)
     summary = summary_document(result, executor, wall_s=time.perf_counter() - wall0,
                                extra={"scenario": scenario.name, **truth_extra})
     run.write_json("summary.json", summary)
@@ -318,18 +331,96 @@ def _truth_document(scene: Scene, origin: LocalOrigin) -> dict[str, Any]:
             "targets": targets}
 
 
+def shadow_visible_at_tilts(
+    beam_azimuth_rad: np.ndarray,
+    start_slant_m: np.ndarray,
+    end_slant_m: np.ndarray,
+    *,
+    altitude_m: float,
+    pitch_rad: float,
+    roll_rad: float,
+    tilt_rad: np.ndarray,
+    elevation_aperture_rad: float,
+) -> np.ndarray:
+    """Truth side: for each tilt, is a target's whole shadow on insonified seabed?
+
+    The simulator's definition (``sim_harness.truth``, ``in_band``), evaluated at other
+    tilts: on every beam the target's shadow covers, the seabed at the shadow's start
+    and end slant ranges lies inside the vertical aperture. A seabed point at slant ``r``
+    on a beam of azimuth ``az`` has the elevation ``e`` (nearest the beam axis) with
+    ``r (A cos e + B sin e) = H``, ``(A, B)`` from the sonar-to-level rotation's third
+    row. The per-beam ranges are the frame's (the beam planes move little with the tilt).
+
+    Parameters
+    ----------
+    beam_azimuth_rad, start_slant_m, end_slant_m : ndarray, shape (n_beams,)
+        The shadow's beams (sonar frame, rad) and slant ranges, m.
+    altitude_m, pitch_rad, roll_rad : float
+        The sonar's altitude (m) and the vehicle's attitude (rad) at the frame.
+    tilt_rad : ndarray, shape (n_tilts,)
+        Tilts to try, rad (positive down).
+
+    Returns
+    -------
+    ndarray of bool, shape (n_tilts,)
+    """
+    tilts = np.asarray(tilt_rad, dtype=np.float64)
+    attitude_row = (rot_y(pitch_rad) @ rot_x(roll_rad))[2]
+    # third row of attitude @ rot_y(-tilt), for every tilt: shape (n_tilts, 3)
+    c, s = np.cos(-tilts), np.sin(-tilts)
+    row = np.stack([attitude_row[0] * c - attitude_row[2] * s, np.full_like(c, attitude_row[1]),
+                    attitude_row[0] * s + attitude_row[2] * c], axis=-1)
+    az = np.asarray(beam_azimuth_rad, dtype=np.float64)[None, :]
+    a = row[:, 0:1] * np.cos(az) + row[:, 1:2] * np.sin(az)
+    b = np.broadcast_to(row[:, 2:3], a.shape)
+    amp = np.hypot(a, b)
+    phi = np.arctan2(b, a)
+    half = elevation_aperture_rad / 2.0
+    ok = np.ones(tilts.shape, dtype=bool)
+    for slant in (start_slant_m, end_slant_m):
+        ratio = altitude_m / (np.asarray(slant, dtype=np.float64)[None, :] * amp)
+        spread = np.arccos(np.clip(ratio, -1.0, 1.0))
+        e1 = np.mod(phi - spread + math.pi, 2 * math.pi) - math.pi
+        e2 = np.mod(phi + spread + math.pi, 2 * math.pi) - math.pi
+        e = np.where(np.abs(e1) <= np.abs(e2), e1, e2)
+        ok &= np.all((ratio <= 1.0) & (np.abs(e) <= half), axis=1)
+    return ok
+
+
 def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Settings, result: DiveResult,
-                        estimated: Any, *, n_beams: int, truth_targets: Any) -> dict[str, Any]:
+                        estimated: Any, *, n_beams: int, truth_targets: Any,
+                        beam_azimuth_rad: Any = None, mount: Any = None,
+                        plan: SurveyPlan | None = None) -> dict[str, Any]:
     """Simulation-only figures from the truth: clearance, depth limit, shadows in view.
 
     The shadow-in-view ratio counts, over the frames of the survey passes, the targets
     *within range*: the whole shadow inside the range window, the target inside the fan
-    (not on its first or last beam), and at least ``FOV_MIN_AHEAD_ALTITUDES`` altitudes
-    ahead (nearer, the shadow sweeps through the vertical aperture faster than a mount can
-    follow: no tilt keeps it). Frames in the first ``FOV_SETTLE_S`` of a pass or of a
-    target coming into range are left out (the loop settling). The ratio is the share of
-    those in which the whole shadow lies inside the insonified band.
+    (not on its first or last beam), its centre inside the *tracking zone* at that frame's
+    true altitude (:func:`planner.pitch_loop.tracking_zone_start_m`, the very function the
+    pitch loop serves targets by, with the loop's own settings: at least
+    ``min_ground_range_over_altitude`` altitudes ahead, and near enough to the window's
+    end that one tilt holds every shadow in the zone with the loop's margins), and some
+    tilt within the mount's limits showing the whole shadow at that frame's true attitude
+    (:func:`shadow_visible_at_tilts`; as the kinematic benchmark does). Frames in the
+    first ``FOV_SETTLE_S`` of a pass or of a target coming into range are left out (the
+    loop settling). In a frame where no one tilt shows all the targets within range (they
+    conflict), only as many count as the best single tilt could show: the ratio is the
+    shadows shown whole over the most that any tilt could have shown, frame by frame.
+
+    Second figures, for comparison: ``shadow_in_fov_ratio_2alt`` with the plain zone
+    (``FOV_MIN_AHEAD_ALTITUDES`` altitudes ahead, the same exclusions otherwise) and
+    ``shadow_in_fov_ratio_all`` (tracking zone, neither exclusion). ``tracking_zone``
+    gives the zone per pass at its planned altitude.
     """
+    from planner.pitch_control import DEFAULT_MOUNT, describe_zone, loop_config
+
+    if mount is None:
+        mount = DEFAULT_MOUNT  # the mount the executor commands
+    zone_config = loop_config(settings, nominal_tilt_rad=0.0)  # the zone does not depend on the tilt
+    tilt_grid = np.arange(mount.min_tilt_rad, mount.max_tilt_rad + 0.5 * FOV_TILT_STEP_RAD, FOV_TILT_STEP_RAD)
+    azimuths = np.asarray(beam_azimuth_rad if beam_azimuth_rad is not None else
+                          np.linspace(-settings.sonar.fan_width_rad / 2, settings.sonar.fan_width_rad / 2, n_beams))
+    aperture = settings.sonar.elevation_aperture_rad
     history = sim.truth_history()
     run.write_csv("truth_track.csv", ("t_s", "north_m", "east_m", "depth_m", "altitude_m", "tilt_deg", "armed"),
                   [[f"{h.time_s:.2f}", f"{h.north_m:.3f}", f"{h.east_m:.3f}", f"{h.depth_m:.3f}", f"{h.altitude_m:.3f}",
@@ -338,36 +429,109 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
     min_clear = min((h.altitude_m for h in armed), default=math.nan)
     depth_violations = sum(1 for h in history if h.depth_m > settings.vehicle.max_depth_m)
     rows = []
-    within = inside = 0
+    zones = ("zone", "2alt")
+    within = dict.fromkeys(zones, 0)
+    inside = dict.fromkeys(zones, 0)
+    conflict_frames = dict.fromkeys(zones, 0)
+    unshowable = dict.fromkeys(zones, 0)
+    plain_within = plain_inside = 0
+    model_checked = model_agrees = 0
     pass_starts = [t for t, state in result.states if state.startswith("PASS_")]
-    entered: dict[str, float] = {}
+    entered: dict[str, dict[str, float]] = {z: {} for z in zones}
     for t_s, truth in sim.sonar_truths():
         pose, altitude = truth.pose, truth.altitude_m
+        zone_start_m = float(zone_config.zone_start_m(altitude))
+        scored: dict[str, list[tuple[bool, np.ndarray]]] = {z: [] for z in zones}
+        in_pass = any(0.0 <= t_s - start for start in pass_starts) and all(
+            not 0.0 <= t_s - start < FOV_SETTLE_S for start in pass_starts)
         for tt in truth.targets:
             in_fov = bool(tt.whole_shadow_in_band) and bool(tt.whole_shadow_in_window)
             ahead = (tt.north_m - pose.north_m) * math.cos(pose.heading_rad) + \
                 (tt.east_m - pose.east_m) * math.sin(pose.heading_rad)
             in_fan = len(tt.beams) > 0 and int(min(tt.beams)) > 0 and int(max(tt.beams)) < n_beams - 1
-            in_range = bool(tt.whole_shadow_in_window) and in_fan and ahead >= FOV_MIN_AHEAD_ALTITUDES * altitude
-            if not in_range:
-                entered.pop(tt.target_id, None)
-            else:
-                entered.setdefault(tt.target_id, t_s)
-            settled = in_range and t_s - entered.get(tt.target_id, t_s) >= FOV_SETTLE_S and any(
-                0.0 <= t_s - start for start in pass_starts) and all(
-                not 0.0 <= t_s - start < FOV_SETTLE_S for start in pass_starts)
-            rows.append([f"{t_s:.2f}", tt.target_id, int(in_range), int(in_fov), int(settled)])
-            if settled:
-                within += 1
-                inside += int(in_fov)
-    run.write_csv("shadows.csv", ("t_s", "target_id", "within_range", "in_fov", "settled"), rows)
+            base = bool(tt.whole_shadow_in_window) and in_fan
+            in_range = {"zone": base and ahead >= zone_start_m,
+                        "2alt": base and ahead >= FOV_MIN_AHEAD_ALTITUDES * altitude}
+            settled: dict[str, bool] = {}
+            for z in zones:
+                if not in_range[z]:
+                    entered[z].pop(tt.target_id, None)
+                else:
+                    entered[z].setdefault(tt.target_id, t_s)
+                settled[z] = in_range[z] and t_s - entered[z].get(tt.target_id, t_s) >= FOV_SETTLE_S and in_pass
+            showable = False
+            if settled["zone"] or settled["2alt"]:
+                visible = _visible_tilts(tt, azimuths, tilt_grid, altitude_m=altitude, pitch_rad=pose.pitch_rad,
+                                         roll_rad=pose.roll_rad, aperture_rad=aperture)
+                here = shadow_visible_at_tilts(
+                    azimuths[np.asarray(tt.beams, dtype=int)], np.asarray(tt.shadow_start_m),
+                    np.asarray(tt.shadow_end_m), altitude_m=altitude, pitch_rad=pose.pitch_rad,
+                    roll_rad=pose.roll_rad, tilt_rad=np.array([pose.tilt_rad]), elevation_aperture_rad=aperture)
+                model_checked += 1
+                model_agrees += int(bool(here[0]) == bool(tt.whole_shadow_in_band))
+                showable = bool(visible.any()) or in_fov
+                for z in zones:
+                    if not settled[z]:
+                        continue
+                    if showable:
+                        scored[z].append((in_fov, visible | in_fov))
+                    else:
+                        unshowable[z] += 1
+                if settled["zone"]:
+                    plain_within += 1
+                    plain_inside += int(in_fov)
+            rows.append([f"{t_s:.2f}", tt.target_id, int(in_range["zone"]), int(in_range["2alt"]), int(in_fov),
+                         int(settled["zone"]), int(showable)])
+        for z in zones:
+            if scored[z]:
+                shown = sum(int(v) for v, _ in scored[z])
+                best = max(int(np.max(np.sum([m for _, m in scored[z]], axis=0))), shown)
+                conflict_frames[z] += int(best < len(scored[z]))
+                within[z] += best
+                inside[z] += shown
+    run.write_csv("shadows.csv", ("t_s", "target_id", "within_range", "within_2alt", "in_fov", "settled", "showable"),
+                  rows)
     heights = _height_summary(estimated, truth_targets)
+    zone_doc = [{"pass": p.name, **describe_zone(zone_config, p.altitude_m)} for p in plan.passes] if plan else []
     return {
         **heights,
         "min_clearance_m": min_clear,
         "depth_limit_violations": depth_violations,
-        "shadow_in_fov_ratio": inside / within if within else None,
-        "shadow_frames_within_range": within,
-        "shadow_in_fov_definition": (f"whole shadow in window and fan, target >= {FOV_MIN_AHEAD_ALTITUDES} "
-                                     f"altitudes ahead, {FOV_SETTLE_S} s settling excluded"),
+        "shadow_in_fov_ratio": inside["zone"] / within["zone"] if within["zone"] else None,
+        "shadow_frames_within_range": within["zone"],
+        "shadow_in_fov_ratio_2alt": inside["2alt"] / within["2alt"] if within["2alt"] else None,
+        "shadow_frames_within_range_2alt": within["2alt"],
+        "shadow_frames_in_conflict_2alt": conflict_frames["2alt"],
+        "shadow_in_fov_ratio_all": plain_inside / plain_within if plain_within else None,
+        "shadow_frames_unshowable": unshowable["zone"],
+        "shadow_frames_in_conflict": conflict_frames["zone"],
+        "shadow_fov_model_agreement": model_agrees / model_checked if model_checked else None,
+        "tracking_zone": zone_doc,
+        "shadow_in_fov_definition": (
+            "whole shadow in window and fan, target centre inside the tracking zone at the frame's true altitude "
+            "(planner.pitch_loop.tracking_zone_start_m with the loop's settings: from max("
+            f"{zone_config.min_ground_range_over_altitude} altitudes, the range at which the zone to the window's "
+            "end spans the aperture less the loop's margin at both edges, for the tallest expected target) to the "
+            f"window's end), {FOV_SETTLE_S} s settling excluded, some tilt within the mount's limits shows it "
+            "whole; where targets conflict, counted up to the most one tilt could show. shadow_in_fov_ratio_2alt: "
+            f"the same with the zone starting {FOV_MIN_AHEAD_ALTITUDES} altitudes ahead"),
     }
+
+
+def _visible_tilts(tt: Any, azimuths: np.ndarray, tilt_grid: np.ndarray, *, altitude_m: float, pitch_rad: float,
+                   roll_rad: float, aperture_rad: float) -> np.ndarray:
+    """For each tilt of ``tilt_grid`` (rad), does it show the truth target ``tt``'s whole shadow?
+
+    Only tilts whose beam axis is within the aperture (and a few degrees for the attitude
+    and the fan's curvature) of the shadow can show it; the others are not computed.
+    """
+    near_dep = math.asin(min(1.0, altitude_m / max(float(np.min(tt.shadow_start_m)), altitude_m)))
+    far_dep = math.asin(min(1.0, altitude_m / max(float(np.max(tt.shadow_end_m)), altitude_m)))
+    slack = aperture_rad / 2 + abs(pitch_rad) + abs(roll_rad) + math.radians(3.0)
+    near = (tilt_grid >= near_dep - slack) & (tilt_grid <= far_dep + slack)
+    visible = np.zeros(tilt_grid.shape, dtype=bool)
+    visible[near] = shadow_visible_at_tilts(
+        azimuths[np.asarray(tt.beams, dtype=int)], np.asarray(tt.shadow_start_m), np.asarray(tt.shadow_end_m),
+        altitude_m=altitude_m, pitch_rad=pitch_rad, roll_rad=roll_rad, tilt_rad=tilt_grid[near],
+        elevation_aperture_rad=aperture_rad)
+    return visible

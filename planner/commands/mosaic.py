@@ -25,7 +25,7 @@ from perception.georef import LocalOrigin
 from perception.heights import HeightPipeline, HeightsConfig
 from perception.heights_layer import MappedTarget
 from perception.mosaic import MosaicConfig
-from perception.mosaic_builder import MosaicBuilder
+from perception.mosaic_builder import MosaicBuilder, masks_from_shadows
 from perception.mosaic_io import map_raster, write_geotiff, write_png_with_world_file, write_targets_geojson
 from perception.readers import open_recording
 from perception.registration import RegistrationConfig
@@ -115,8 +115,14 @@ def run(args: argparse.Namespace) -> int:
                     if not frame.known(name):
                         raise UsageError(f"{path}: frame at t={frame.timestamp_s:.3f} s has no {name}; "
                                          "give the pose in the frames or with --nav")
-                heights.add_frame(frame)
-                builder.add_frame(frame)
+                result = heights.add_frame(frame)
+                shadow = unreliable = None
+                if result.measurements:
+                    # Measured shadows stay out of the blend, target echoes out of registration.
+                    masks = masks_from_shadows(result.measurements, range_m=frame.range_m, n_beams=frame.n_beams,
+                                               beam_azimuth_rad=frame.beam_azimuth_rad, image=frame.image)
+                    shadow, unreliable = masks.shadow, masks.target
+                builder.add_frame(frame, exclude_mask=shadow, unreliable_mask=unreliable)
                 bar.update(1)
     targets = [MappedTarget(t.target_id, t.north_m, t.east_m,
                             math.nan if t.height_m is None else t.height_m,

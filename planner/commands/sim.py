@@ -34,7 +34,8 @@ def register(subparsers: Any) -> None:
     parser.add_argument("scenario", nargs="?", default="paper-targets",
                         help="built-in scenario name, a scenario folder or scenario.toml (default: paper-targets)")
     parser.add_argument("--out", default="runs/sim", help="run folder (default: runs/sim)")
-    parser.add_argument("--fixed-tilt", action="store_true", help="fly the plan's fixed tilts (no pitch loop)")
+    parser.add_argument("--fixed-tilt", action="store_true",
+                        help="hold the tilt that centres the tracking zone (no pitch loop)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 

@@ -77,6 +77,23 @@ def test_targets_are_queryable_after_every_frame(rng: np.random.Generator) -> No
     assert all(t.height_m is not None for t in pipeline.targets())
 
 
+def test_targets_are_solved_once_per_frame(rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch) -> None:
+    pipeline = HeightPipeline()
+    for altitude in (0.5, 0.6):
+        pipeline.add_frame(_frame(rng, altitude)[0])
+    calls = []
+    solve = pipeline._solve
+    monkeypatch.setattr(pipeline, "_solve", lambda *a, **k: calls.append(1) or solve(*a, **k))
+    first = pipeline.targets()
+    again = pipeline.targets()
+    assert again == first and again is not first and len(calls) == 3
+    again.clear()  # the caller's list is its own
+    assert pipeline.targets() == first and len(calls) == 3
+    pipeline.add_frame(_frame(rng, 0.55)[0])
+    third = pipeline.targets()
+    assert len(calls) == 6 and all(t.frames_used == 3 for t in third)
+
+
 def test_one_frame_is_enough_when_allowed_and_the_altitude_is_known(rng: np.random.Generator) -> None:
     pipeline = HeightPipeline(HeightsConfig(min_frames=1))
     frame, truths = _frame(rng, 0.5)

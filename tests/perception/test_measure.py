@@ -102,3 +102,5 @@ def test_measure_config_is_validated() -> None:
         MeasureConfig(central_fraction=0.0)
     with pytest.raises(ValueError, match="smooth_beams"):
         MeasureConfig(smooth_beams=2)
+    with pytest.raises(ValueError, match="end_contrast_db"):
+        MeasureConfig(end_contrast_db=0.0)

@@ -13,14 +13,15 @@ from hypothesis import strategies as st
 from perception.beams import aris3000_128
 from perception.errors import GeometryError
 from perception.geometry import insonified_band
+from perception.measure import ShadowMeasurement
 from perception.mosaic import (
     MosaicConfig,
     TiledMosaic,
     placement_from_frame,
     project_frame,
 )
-from perception.mosaic_builder import MosaicBuilder
-from perception.registration import RegistrationConfig, measure_shift
+from perception.mosaic_builder import MosaicBuilder, masks_from_shadows
+from perception.registration import DriftEstimator, RegistrationConfig, RegistrationResult, measure_shift
 from tests.perception.synth_seabed import render, texture
 
 RES_M = 0.01
@@ -215,3 +216,131 @@ def test_drift_of_ten_centimetres_is_brought_back(seabed):
             assert builder.drift is not None and builder.drift.accepted > 10
     assert max(results[True]) <= 0.03
     assert max(results[True]) < 0.5 * max(results[False])
+
+
+def _measurement(columns, tops, ends, *, highlight_m, width, azimuth_rad=0.0, truncated=False):
+    return ShadowMeasurement(
+        azimuth_rad=azimuth_rad, r_top_m=float(np.median(tops)) if tops else math.nan,
+        r_end_m=float(np.median(ends)) if ends else math.nan, sigma_r_m=0.005, highlight_range_m=highlight_m,
+        columns=tuple(columns), r_top_per_beam_m=tuple(tops), r_end_per_beam_m=tuple(ends), truncated=truncated,
+        reason="cut" if truncated else None, overlap=0.5, shadow_width_beams=width,
+    )
+
+
+def test_masks_from_shadows_cover_the_measured_boxes():
+    ranges = 0.70 + 0.01 * np.arange(231)  # 0.70 .. 3.00 m, 1 cm rows
+    azimuth = np.linspace(-0.2, 0.2, 21)
+    measured = _measurement((8, 9, 10), (2.00, 2.01, 2.00), (2.40, 2.41, 2.39), highlight_m=1.90, width=5)
+    cut = _measurement((), (), (), highlight_m=2.80, width=2, azimuth_rad=float(azimuth[17]), truncated=True)
+    masks = masks_from_shadows([measured, cut], range_m=ranges, n_beams=21, beam_azimuth_rad=azimuth, pad_m=0.02)
+    rows, cols = np.nonzero(masks.shadow)
+    # measured: beams 8-10 widened to the shadow's 5 beams (7-11), plus one either side
+    first = cols <= 12
+    assert set(cols[first]) == set(range(6, 13))
+    assert ranges[rows[first]].min() == pytest.approx(1.98) and ranges[rows[first]].max() == pytest.approx(2.43)
+    # truncated, no beam located: 2 beams from beam 17 (17-18), plus one either side, from
+    # its highlight to the window's end
+    assert set(cols[~first]) == set(range(16, 20))
+    assert ranges[rows[~first]].min() == pytest.approx(2.78) and rows[~first].max() == 230
+    # the target mask adds the highlight's stretch in front of the shadow
+    t_rows, t_cols = np.nonzero(masks.target[:, 6:13])
+    assert ranges[t_rows].min() == pytest.approx(1.88) and np.all(masks.target[masks.shadow])
+    # without azimuths a measurement that located no beam cannot be placed
+    alone = masks_from_shadows([cut], range_m=ranges, n_beams=21)
+    assert not alone.shadow.any()
+    with pytest.raises(ValueError, match="increasing"):
+        masks_from_shadows([], range_m=ranges[::-1], n_beams=21)
+
+
+def test_a_measured_shadow_is_masked_only_if_it_is_dark():
+    """A real shadow falls to the noise floor; a dark patch of seabed paired by chance does not."""
+    ranges = 0.70 + 0.01 * np.arange(231)
+    image = np.full((231, 21), 130, dtype=np.uint8)
+    image[130:170, 8:11] = 20  # 35 dB down: a shadow, rows 2.00-2.39 m
+    image[130:170, 15:18] = 110  # 6 dB down: seabed texture
+    shadow = _measurement((8, 9, 10), (2.00,) * 3, (2.39,) * 3, highlight_m=1.95, width=3)
+    patch = _measurement((15, 16, 17), (2.00,) * 3, (2.39,) * 3, highlight_m=1.95, width=3)
+    masks = masks_from_shadows([shadow, patch], range_m=ranges, n_beams=21, image=image, pad_m=0.02)
+    assert not masks.shadow[:, 13:].any() and not masks.target[:, 13:].any()
+    rows, cols = np.nonzero(masks.shadow)
+    assert set(cols) == set(range(7, 12))
+    assert ranges[rows].min() == pytest.approx(1.98) and ranges[rows].max() == pytest.approx(2.41)
+    # without the image both count
+    assert masks_from_shadows([shadow, patch], range_m=ranges, n_beams=21).shadow[:, 13:].any()
+
+
+def test_unreliable_cells_are_blended_but_not_registered(seabed):
+    frame = _frame(seabed, north_m=5.0, east_m=5.0)
+    cfg = MosaicConfig(resolution_m=RES_M)
+    mask = np.zeros(frame.image.shape, dtype=bool)
+    mask[300:350, 40:80] = True
+    plain = project_frame(frame, placement_from_frame(frame), config=cfg)
+    marked = project_frame(frame, placement_from_frame(frame), config=cfg, unreliable_mask=mask)
+    assert plain is not None and marked is not None
+    np.testing.assert_array_equal(plain.weight, marked.weight)
+    np.testing.assert_array_equal(plain.reliable, plain.weight > 0)
+    lost = plain.reliable & ~marked.reliable
+    assert lost.sum() > 300
+    n_idx, e_idx = np.nonzero(lost)
+    slant = np.sqrt(((n_idx + marked.row0 + 0.5) * RES_M - 5.0) ** 2
+                    + ((e_idx + marked.col0 + 0.5) * RES_M - 5.0) ** 2 + 1.0)
+    assert slant.min() > RANGES_M[299] - 0.02 and slant.max() < RANGES_M[350] + 0.02
+
+
+def test_drift_filter_weighs_matches_by_their_uncertainty():
+    cfg = RegistrationConfig(initial_drift_std_m=0.02, drift_walk_m=0.01, measurement_std_m=0.015,
+                             drift_floor_m=0.05, drift_per_m=0.02)
+    est = DriftEstimator(cfg)
+    match = RegistrationResult(True, 0.04, -0.03, 0.5, 0.8, "accepted")
+    # after 5 m the drift's variance is 0.02^2 + 0.01^2 * 5 = 9e-4: gain 9e-4 / (9e-4 + 2.25e-4) = 0.8
+    assert est.update(match, travelled_m=5.0).accepted
+    assert est.north_m == pytest.approx(0.8 * 0.04) and est.east_m == pytest.approx(-0.8 * 0.03)
+    assert est.std_m == pytest.approx(math.sqrt(9e-4 * 0.2))
+    # a second identical match right away counts less (the estimate is already good)
+    est.update(match, travelled_m=5.0)
+    assert 0.032 < est.north_m < 0.032 + 0.8 * 0.04
+    # the prior: 0.05 + 0.02 * 5 = 0.15 m of drift is the most the navigation allows here
+    far = RegistrationResult(True, 0.15, 0.0, 0.5, 0.8, "accepted")
+    refused = est.update(far, travelled_m=5.0)
+    assert not refused.accepted and refused.reason == "drift beyond prior"
+    assert est.rejected == 1 and est.accepted == 2
+
+
+def test_registration_config_is_checked():
+    with pytest.raises(ValueError, match="measurement_std_m"):
+        RegistrationConfig(measurement_std_m=0.0)
+    with pytest.raises(ValueError, match="stack_frames"):
+        RegistrationConfig(stack_frames=40, reference_lag_frames=30)
+    with pytest.raises(ValueError, match="min_ncc"):
+        RegistrationConfig(min_ncc=1.5)
+
+
+@pytest.mark.slow
+def test_speckle_alone_is_never_registered():
+    """Every ping draws a new random seabed (no persistent texture): nothing may match."""
+    rng = np.random.default_rng(11)
+    builder = MosaicBuilder(MosaicConfig(resolution_m=RES_M), RegistrationConfig(every_n_frames=1))
+    for k in range(70):
+        tex = texture(rng, 1000, blur_cells=1.0)
+        heading = 0.0 if k < 35 else math.pi
+        north = 2.0 + 0.05 * k if k < 35 else 7.5 - 0.05 * (k - 35)
+        builder.add_frame(_frame(tex, north_m=north, east_m=5.0 + (0.0 if k < 35 else 0.3), heading_rad=heading))
+    assert builder.drift is not None
+    assert builder.drift.accepted == 0
+    assert builder.drift.north_m == 0.0 and builder.drift.east_m == 0.0
+
+
+@pytest.mark.slow
+def test_speckle_fools_registration_without_its_quality_test():
+    """The same pings with the quality tests off: speckle peaks are taken as drift."""
+    rng = np.random.default_rng(11)
+    loose = RegistrationConfig(every_n_frames=1, min_response=0.0, min_ncc=-1.0, min_ncc_gain=0.0,
+                               half_agreement_m=0.0, outlier_sigmas=0.0)
+    builder = MosaicBuilder(MosaicConfig(resolution_m=RES_M), loose)
+    for k in range(70):
+        tex = texture(rng, 1000, blur_cells=1.0)
+        heading = 0.0 if k < 35 else math.pi
+        north = 2.0 + 0.05 * k if k < 35 else 7.5 - 0.05 * (k - 35)
+        builder.add_frame(_frame(tex, north_m=north, east_m=5.0 + (0.0 if k < 35 else 0.3), heading_rad=heading))
+    assert builder.drift is not None and builder.drift.accepted > 5
+    assert math.hypot(builder.drift.north_m, builder.drift.east_m) > 0.05

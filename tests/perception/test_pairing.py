@@ -114,3 +114,40 @@ def test_merged_shadows_of_neighbours_are_shared_by_beam(rng: np.random.Generato
         assert m.usable
         height = 0.5 * (m.r_end_m - m.r_top_m) / m.r_end_m
         assert height == pytest.approx(truth.box.height_m, abs=0.002)
+
+
+def test_neighbours_merged_side_by_side_are_told_apart(rng: np.random.Generator) -> None:
+    # Two boxes touching in azimuth, far edges at one range: one highlight and one shadow
+    # region; the shadows end at different ranges (3 and 6 cm high), so two targets.
+    boxes = (Box(1.2, -0.03, 0.08, 0.06, 0.03), Box(1.2, 0.03, 0.08, 0.06, 0.06))
+    frame, seg, pairs, truths = _pairs(SynthConfig(boxes=boxes), rng)
+    assert len(seg.highlights) == 1 and len(seg.shadows) == 1
+    assert len(pairs) == 2
+    assert not set(pairs[0].columns) & set(pairs[1].columns)
+    for pair in pairs:
+        m = measure_pair(seg, pair, range_m=frame.range_m, beam_azimuth_rad=frame.beam_azimuth_rad)
+        truth = min(truths, key=lambda t: abs(t.azimuth_rad - m.azimuth_rad))
+        assert m.usable
+        assert abs(m.azimuth_rad - truth.azimuth_rad) < np.radians(0.5)
+        height = 0.5 * (m.r_end_m - m.r_top_m) / m.r_end_m
+        assert height == pytest.approx(truth.box.height_m, abs=0.002)
+
+
+def test_a_highlight_broken_in_two_is_one_target(rng: np.random.Generator) -> None:
+    # The target's echo is at seabed level in a few beams through its middle: two
+    # highlights in front of one shadow, still one target.
+    box = Box(1.2, 0.0, 0.10, 0.05, 0.039)
+    frame, _, truths = render(SynthConfig(boxes=(box,)), rng=rng)
+    image = frame.image.copy()
+    whole = segment(image)
+    (hl,) = whole.highlights
+    mid = (hl.col_start + hl.col_stop) // 2
+    seabed = np.round(whole.background[hl.row_start : hl.row_stop, None]).astype(np.uint8)
+    image[hl.row_start : hl.row_stop, mid - 1 : mid + 2] = seabed
+    seg = segment(image)
+    assert len(seg.highlights) == 2 and len(seg.shadows) == 1
+    (pair,) = pair_regions(seg)
+    assert min(pair.columns) < mid - 1 and max(pair.columns) > mid + 1
+    m = measure_pair(seg, pair, range_m=frame.range_m, beam_azimuth_rad=frame.beam_azimuth_rad)
+    assert m.usable and abs(m.azimuth_rad - truths[0].azimuth_rad) < np.radians(0.5)
+    assert 0.5 * (m.r_end_m - m.r_top_m) / m.r_end_m == pytest.approx(box.height_m, abs=0.002)

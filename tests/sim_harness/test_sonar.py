@@ -13,6 +13,7 @@ from scipy import stats
 from sim_harness.scene import load_scene
 from sim_harness.scene_errors import PoseError, SonarConfigError
 from sim_harness.sonar import SonarConfig, SonarPose, SonarRenderer, power_to_uint8
+from sim_harness.sonar_seabed import arccos01_f32
 from sim_harness.truth import Label
 from sim_harness.viewpoint import scene_pose
 from sim_harness.world import Relief, Seabed, TargetSpec, World
@@ -362,3 +363,19 @@ def test_each_cell_is_owned_by_the_nearest_target_hiding_it() -> None:
     k = int(np.nonzero(f.beams == j)[0][0])
     assert truth.labels[_cell(cfg, f.shadow_start_m[k]) + 2, j] == Label.SHADOW
     assert truth.owner[_cell(cfg, f.shadow_start_m[k]) + 2, j] == f.index
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(0.0, 1.0, width=32), min_size=1, max_size=64))
+def test_fast_arccos_matches_numpy_on_unit_interval(values: list[float]) -> None:
+    x = np.array(values, dtype=np.float32)
+    got = arccos01_f32(x)
+    assert got.dtype == np.float32 and got.shape == x.shape
+    np.testing.assert_allclose(got, np.arccos(x.astype(np.float64)), rtol=0.0, atol=3e-7)
+    assert np.array_equal(x, np.array(values, dtype=np.float32))  # the input is left alone
+
+
+def test_fast_arccos_known_values() -> None:
+    x = np.array([0.0, 0.5, math.sqrt(0.5), 1.0, 1.5], dtype=np.float32)
+    want = [math.pi / 2, math.pi / 3, math.pi / 4, 0.0, 0.0]
+    np.testing.assert_allclose(arccos01_f32(x), want, rtol=0.0, atol=3e-7)

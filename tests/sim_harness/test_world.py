@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim_harness.scene_errors import WorldError
-from sim_harness.shapes import BoxSolid, CylinderSolid, EllipsoidSolid
+from sim_harness.shapes import BoxSolid, CompositeSolid, CylinderSolid, EllipsoidSolid, intersect_batch
 from sim_harness.world import MATERIALS, Material, Relief, Seabed, TargetSpec, World
 
 
@@ -147,3 +147,65 @@ def test_box_first_hit_is_on_the_surface_and_nothing_is_skipped(
         return
     first = ts[np.argmax(inn)]
     assert t[0] == pytest.approx(first, abs=1.5e-3)
+
+
+def _scattered_rays(world: World, rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(origin, solid index per ray, unit directions) aimed near the world's targets."""
+    origin = np.array([-2.0, 0.3, 4.0]) + rng.normal(0.0, 0.2, 3)
+    which = rng.integers(0, len(world.placed), n)
+    centres = np.array([[p.spec.north_m, p.spec.east_m, p.base_depth_m - 0.1] for p in world.placed])[which]
+    d = centres - origin + rng.normal(0.0, 0.15, (n, 3))
+    return origin, which, d / np.linalg.norm(d, axis=1)[:, None]
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.lists(st.sampled_from(["box", "cylinder", "stone", "rock"]), min_size=1, max_size=7), st.integers(0, 2**31))
+def test_batched_intersections_equal_each_solids_own(shapes: list[str], seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    specs = tuple(
+        TargetSpec(f"t{i}", shape, rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(0.1, 0.5), rng.uniform(0.1, 0.5),
+                   rng.uniform(0.05, 0.4), yaw_rad=rng.uniform(-3, 3), seed=i)
+        for i, shape in enumerate(shapes)
+    )
+    world = World(Seabed(5.0), specs)
+    solids = [p.solid for p in world.placed]
+    origin, which, d = _scattered_rays(world, rng, 3000)
+    for normals in (True, False):
+        t, n = intersect_batch(solids, which, origin, d, normals=normals)
+        for i, solid in enumerate(solids):
+            idx = np.flatnonzero(which == i)
+            t_i, n_i = solid.intersect(origin, d[idx], normals=normals)
+            np.testing.assert_array_equal(t[idx], t_i)  # bit for bit, misses (inf) included
+            if normals:
+                np.testing.assert_array_equal(n[idx], n_i)
+    assert np.any(np.isfinite(t))  # the rays do meet the solids
+
+
+def test_a_rock_is_hit_where_its_nearest_lobe_is(rng: np.random.Generator) -> None:
+    world = World(Seabed(5.0), (TargetSpec("r", "rock", 0.2, -0.1, 0.6, 0.4, 0.3, yaw_rad=0.7, seed=4),))
+    rock = world.placed[0].solid
+    assert isinstance(rock, CompositeSolid) and len(rock.lobes) >= 3
+    origin, _, d = _scattered_rays(world, rng, 4000)
+    t, n = rock.intersect(origin, d)
+    per_lobe = np.array([lobe.intersect(origin, d)[0] for lobe in rock.lobes])
+    np.testing.assert_array_equal(t, per_lobe.min(axis=0))
+    hit = np.isfinite(t)
+    assert 0.1 < hit.mean() < 0.9
+    win = np.argmin(per_lobe, axis=0)
+    for i, lobe in enumerate(rock.lobes):
+        idx = np.flatnonzero(hit & (win == i))
+        if idx.size:
+            np.testing.assert_allclose(n[idx], lobe.intersect(origin, d[idx])[1], atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(n[hit], axis=1), 1.0)
+
+
+def test_relief_in_float32_stays_within_a_micrometre(rng: np.random.Generator) -> None:
+    relief = Relief(0.05, 5.0, seed=3)
+    n, e = rng.uniform(-100, 100, 2000), rng.uniform(-100, 100, 2000)
+    h64, gn64, ge64 = relief.height_and_gradient(n, e)
+    h32, gn32, ge32 = relief.height_and_gradient(n, e, dtype=np.float32)
+    assert h32.dtype == np.float32
+    np.testing.assert_allclose(h32, h64, atol=1e-6)
+    np.testing.assert_allclose(gn32, gn64, atol=1e-5)
+    np.testing.assert_allclose(ge32, ge64, atol=1e-5)
+    np.testing.assert_array_equal(relief.height_m(n, e), h64)
