@@ -31,6 +31,7 @@ only in the beams measured, before the edges are sought.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -247,9 +248,8 @@ def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: Measure
         beam_list += central
         shadow_list += [pair.shadow.label] * len(central)
         highlight_list += [pair.highlight.label] * len(central)
-    out = [_Edges([], _NONE, _NONE, False) for _ in pairs]
     if not beam_list:
-        return out
+        return [_Edges([], _NONE, _NONE, False) for _ in pairs]
     beams = np.array(beam_list, dtype=np.intp)
     s_labels = np.array(shadow_list, dtype=np.intp)
     t_labels = np.array(highlight_list, dtype=np.intp)
@@ -259,7 +259,7 @@ def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: Measure
     owner = np.array(owner_list, dtype=np.intp)[ok]
     beams, s_labels, t_labels, s_last = beams[ok], s_labels[ok], t_labels[ok], s_last[ok]
     if beams.size == 0:
-        return out
+        return [_Edges([], _NONE, _NONE, False) for _ in pairs]
     s_first = segmentation.shadow_rows[0][s_labels, beams]
     # The highlight's first row (where it is in the beam) bounds the window below.
     t_first = np.maximum(segmentation.highlight_rows[0][t_labels, beams], 0)
@@ -290,15 +290,16 @@ def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: Measure
     rows = np.minimum(lo[None, :] + np.arange(length)[:, None], n_rows - 1)
     b_half = cfg.smooth_beams // 2
     shifts = np.minimum(np.maximum((beams[None, :] + np.arange(-b_half, b_half + 1)[:, None]).ravel(), 0), n_cols - 1)
-    block = segmentation.power_take(np.tile(rows * n_cols, cfg.smooth_beams) + shifts[None, :])
+    index = (rows * n_cols)[:, None, :] + shifts.reshape(cfg.smooth_beams, beams.size)[None, :, :]
+    block = segmentation.power_take(index.reshape(length, -1))
     power = block[:, : beams.size]
     for j in range(1, cfg.smooth_beams):
         power = power + block[:, j * beams.size : (j + 1) * beams.size]
     power *= 1.0 / cfg.smooth_beams
-    cum = np.concatenate([np.zeros((1, power.shape[1])), np.cumsum(power, axis=0)])
+    cum = _cumsum0(power)
     p = (cum[k_smooth:] - cum[:-k_smooth]) / k_smooth
     off = lo + half
-    cum_p = np.concatenate([np.zeros((1, p.shape[1])), np.cumsum(p, axis=0)])
+    cum_p = _cumsum0(p)
     idx = np.arange(p.shape[0])[:, None]
     cols = np.arange(p.shape[1])
     # Levels: shadow inside, seabed just after the shadow.
@@ -315,7 +316,7 @@ def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: Measure
     beyond = ~(contrast_db >= cfg.end_contrast_db)
     # A shadow cut by the far edge is cut across its width: most of its beams.
     n_cut = n_cut + np.bincount(owner[beyond], minlength=len(pairs))
-    out = [_Edges([], _NONE, _NONE, bool(2 * c > b)) for c, b in zip(n_cut, n_beams, strict=True)]
+    far_cut = [bool(2 * c > b) for c, b in zip(n_cut.tolist(), n_beams.tolist(), strict=True)]
     # The target's echo just before its far top edge (which may be weaker than the
     # highlight's brightest part, e.g. a top seen at grazing incidence): find the edge
     # roughly as the last sample above the dB-midpoint of shadow and seabed, then take
@@ -344,9 +345,18 @@ def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: Measure
     )
     top = top + off
     end = end + off
+    out = []
     for n in range(len(pairs)):
         mine = good & (owner == n)
-        out[n] = _Edges([int(b) for b in beams[mine]], top[mine], end[mine], out[n].far_cut)
+        out.append(_Edges(beams[mine].tolist(), top[mine], end[mine], far_cut[n]))
+    return out
+
+
+def _cumsum0(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Cumulative sums down the rows with a row of zeros first, shape (n + 1, m)."""
+    out = np.empty((values.shape[0] + 1, values.shape[1]))
+    out[0] = 0.0
+    np.cumsum(values, axis=0, out=out[1:])
     return out
 
 
@@ -407,7 +417,6 @@ def _measurement(
     """Combine one pair's per-beam edges into its measurement."""
     cfg = config
     n_rows = segmentation.levels.shape[0]
-    rows_axis = np.arange(n_rows, dtype=np.float64)
     t, s = pair.highlight, pair.shadow
     # Whether the far edge of the band cuts the shadow is decided beam by beam from the
     # seabed after it (``edges.far_cut``), not from the band's estimated edge.
@@ -425,29 +434,30 @@ def _measurement(
         reason = "; ".join(TRUNCATION_REASONS[f] for f in cutting) if cutting else (
             "no beam with both shadow edges found"
         )
-        azimuth = float(np.mean(beam_azimuth_rad[list(pair.columns)]))
+        azimuth = _mean(beam_azimuth_rad[list(pair.columns)])
         return ShadowMeasurement(
             azimuth_rad=azimuth, r_top_m=math.nan, r_end_m=math.nan, sigma_r_m=math.nan,
             highlight_range_m=highlight_range, columns=(), r_top_per_beam_m=(),
             r_end_per_beam_m=(), truncated=bool(cutting), reason=reason,
             overlap=pair.overlap, shadow_width_beams=width,
         )
-    top_m = np.interp(tops, rows_axis, range_m)
-    end_m = np.interp(ends, rows_axis, range_m)
+    n = len(used)
+    # Both edges in one interpolation, then plain Python on the few per-beam values.
+    both_m = np.interp(np.concatenate((tops, ends)), _rows_axis(n_rows), range_m).tolist()
+    top_m, end_m = both_m[:n], both_m[n:]
     r_top = _median(top_m)
     r_end = _median(end_m)
-    n = len(used)
     spread = max(_robust_std(top_m), _robust_std(end_m))
     sigma = max(1.2533 * spread / math.sqrt(n), 0.25 * dr / math.sqrt(n))
     return ShadowMeasurement(
-        azimuth_rad=float(np.mean(beam_azimuth_rad[used])),
+        azimuth_rad=_mean(beam_azimuth_rad[used]),
         r_top_m=r_top,
         r_end_m=r_end,
         sigma_r_m=sigma,
         highlight_range_m=highlight_range,
         columns=tuple(used),
-        r_top_per_beam_m=tuple(float(v) for v in top_m),
-        r_end_per_beam_m=tuple(float(v) for v in end_m),
+        r_top_per_beam_m=tuple(top_m),
+        r_end_per_beam_m=tuple(end_m),
         truncated=bool(cutting),
         reason="; ".join(TRUNCATION_REASONS[f] for f in cutting) if cutting else None,
         overlap=pair.overlap,
@@ -455,16 +465,30 @@ def _measurement(
     )
 
 
-def _robust_std(values: NDArray[np.float64]) -> float:
+@functools.lru_cache(maxsize=8)
+def _rows_axis(n_rows: int) -> NDArray[np.float64]:
+    """Row numbers 0 .. n_rows - 1 as floats, shape (n_rows,), read-only (cached per frame size)."""
+    out = np.arange(n_rows, dtype=np.float64)
+    out.flags.writeable = False
+    return out
+
+
+def _mean(values: NDArray[np.float64]) -> float:
+    """``float(np.mean(values))`` of a 1-D float64 array (the same sum), without its wrapper."""
+    return float(np.add.reduce(values) / values.size)
+
+
+def _robust_std(values: list[float]) -> float:
     """1.4826 x median absolute deviation (0 for a single value)."""
-    if values.size < 2:
+    if len(values) < 2:
         return 0.0
-    return 1.4826 * _median(np.abs(values - _median(values)))
+    middle = _median(values)
+    return 1.4826 * _median([abs(v - middle) for v in values])
 
 
-def _median(values: NDArray[np.float64]) -> float:
-    """Median of a short 1-D array (cheaper than ``np.median`` for a few values)."""
-    items = sorted(values.tolist())
+def _median(values: list[float]) -> float:
+    """Median of a short list (cheaper than ``np.median`` for a few values)."""
+    items = sorted(values)
     n = len(items)
     return float(items[n // 2]) if n % 2 else 0.5 * (items[n // 2 - 1] + items[n // 2])
 

@@ -152,10 +152,9 @@ def fov_flags(
                 first, last, present = known if known is not None else column_extents(segmentation, region)
                 cols: slice | NDArray[np.intp] = slice(region.col_start, region.col_stop)
             else:
-                cols = np.asarray(columns, dtype=np.intp)
-                first = segmentation.shadow_rows[0][region.label, cols]
-                last = segmentation.shadow_rows[1][region.label, cols]
-                present = last >= 0
+                # A pair's few dozen beams: plain Python on lists beats numpy's call overhead.
+                flags.extend(_band_flags(segmentation, region, columns, n_rows=n_rows, d=d))
+                continue
             start = segmentation.band_start_rows[cols]
             stop = segmentation.band_stop_rows[cols]
             # On a grid of step d a region's rows are its cells' ([d i, d i + d - 1]); the
@@ -168,11 +167,37 @@ def fov_flags(
     return tuple(dict.fromkeys(flags))
 
 
+def _band_flags(
+    segmentation: Segmentation, region: Region, columns: tuple[int, ...], *, n_rows: int, d: int
+) -> list[str]:
+    """``band_near``/``band_far`` of a shadow in a pair's beams (see :func:`fov_flags`)."""
+    cols = list(columns)
+    first = segmentation.shadow_rows[0][region.label, cols].tolist()
+    last = segmentation.shadow_rows[1][region.label, cols].tolist()
+    start = segmentation.band_start_rows[cols].tolist()
+    stop = segmentation.band_stop_rows[cols].tolist()
+    flags = []
+    # On a grid of step d a region's rows are its cells' ([d i, d i + d - 1]); the
+    # band's edge rows lie inside their cells.
+    if any(b >= 0 and a <= s0 and s0 > 0 for a, b, s0 in zip(first, last, start, strict=True)):
+        flags.append("band_near")
+    n_present = sum(1 for b in last if b >= 0)
+    n_far = sum(
+        1 for b, e in zip(last, stop, strict=True) if b >= 0 and b - (d - 1) >= e - e % d and e < n_rows - 1
+    )
+    if 2 * n_far > n_present:
+        flags.append("band_far")
+    return flags
+
+
 def _median3(values: list[float]) -> list[float]:
     """Running median of three (the ends kept): a single odd beam is not a jump."""
     if len(values) < 3:
         return values
-    inner = [sorted(values[i - 1 : i + 2])[1] for i in range(1, len(values) - 1)]
+    inner = [
+        b if a <= b <= c or c <= b <= a else (a if b <= a <= c or c <= a <= b else c)
+        for a, b, c in zip(values, values[1:], values[2:], strict=False)
+    ]
     return [values[0], *inner, values[-1]]
 
 
@@ -187,15 +212,19 @@ def _runs(
     first = _median3(segmentation.shadow_rows[0][shadow.label, cols].tolist())
     last = _median3(segmentation.shadow_rows[1][shadow.label, cols].tolist())
     runs = [[cols[0]]]
-    for k in range(1, len(cols)):
-        limit = max(JUMP_MIN_SAMPLES, JUMP_FRACTION * min(last[k - 1] - first[k - 1], last[k] - first[k]) + 1)
-        if (
-            cols[k] - cols[k - 1] > MAX_BEAM_STEP
-            or abs(first[k] - first[k - 1]) > limit
-            or abs(last[k] - last[k - 1]) > limit
-        ):
-            runs.append([])
-        runs[-1].append(cols[k])
+    run = runs[0]
+    c0, f0, l0 = cols[0], first[0], last[0]
+    for c1, f1, l1 in zip(cols[1:], first[1:], last[1:], strict=True):
+        # max(JUMP_MIN_SAMPLES, JUMP_FRACTION * min(lengths) + 1), without the calls
+        a, b = l0 - f0, l1 - f1
+        limit = JUMP_FRACTION * (a if a < b else b) + 1
+        if limit < JUMP_MIN_SAMPLES:
+            limit = JUMP_MIN_SAMPLES
+        if c1 - c0 > MAX_BEAM_STEP or abs(f1 - f0) > limit or abs(l1 - l0) > limit:
+            run = []
+            runs.append(run)
+        run.append(c1)
+        c0, f0, l0 = c1, f1, l1
     if len(runs) > 1:
         runs = [r for r in runs if len(r) >= MIN_RUN_BEAMS]
     return runs

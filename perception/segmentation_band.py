@@ -58,8 +58,10 @@ def _robust_edge(
     for _ in range(2):
         if np.count_nonzero(use) < 3:
             return values
-        s0, s1, s2, s3, s4 = (powers[:, use].sum(axis=1)).tolist()
-        t0, t1, t2 = (powers[:3, use] @ target[use]).tolist()
+        # ``compress`` picks the used beams faster than boolean indexing (same arrays).
+        picked = powers.compress(use, axis=1)
+        s0, s1, s2, s3, s4 = np.add.reduce(picked, axis=1).tolist()
+        t0, t1, t2 = (picked[:3] @ target.compress(use)).tolist()
         coeffs = _solve3(((s0, s1, s2), (s1, s2, s3), (s2, s3, s4)), (t0, t1, t2))
         if coeffs is None:
             return values

@@ -93,8 +93,12 @@ def grid_smooth(
     ):
         # The detection grid's rows (the middle row of every block of ``step`` rows): the
         # sum over the rows around each is one reduction over a reshaped view.
+        # Row by row adds (exact integer sums) are several times faster than numpy's
+        # strided reduction over the middle axis.
         blocks = image.reshape(rows.size, step, n_cols)[:, step // 2 - half : step // 2 + half + 1]
-        acc = blocks.sum(axis=1, dtype=np.uint16)
+        acc = blocks[:, 0].astype(np.uint16)
+        for k in range(1, blocks.shape[1]):
+            np.add(acc, blocks[:, k], out=acc)
     else:
         acc = np.zeros((rows.size, n_cols), dtype=np.uint16 if wide else np.float32)
         for offset in range(-half, half + 1):
@@ -146,7 +150,12 @@ def row_background(
     # The upper quartile, not the median: a row can be more than half shadow when large
     # targets stand in it, but highlights are never a quarter of a row.
     k = (3 * small.shape[1]) // 4
-    level = np.partition(small, k, axis=1)[:, k].astype(np.float32)
+    if small.dtype == np.float32 and small.min() >= 0:
+        # Non-negative float32 values order as their int32 bit patterns, which numpy
+        # partitions markedly faster; the element picked is the same.
+        level = np.partition(small.view(np.int32), k, axis=1)[:, k].view(np.float32).copy()
+    else:
+        level = np.partition(small, k, axis=1)[:, k].astype(np.float32)
     # Bright targets filling a quarter of a row raise its quartile; a wide running
     # median over blocks (which keeps the band's edges sharp) caps such rises.
     wide = np.asarray(median_filter(level, size=BACKGROUND_MEDIAN_BLOCKS, mode="nearest"))

@@ -174,8 +174,14 @@ class Segmentation:
         rows = np.minimum(np.maximum(start_rows[None, :] - h_s + np.arange(length + 2 * h_s)[:, None], 0), n_rows - 1)
         cols = np.minimum(np.maximum(beams[None, :] + np.arange(-h_b, h_b + 1)[:, None], 0), n_cols - 1)
         index = (rows * n_cols)[:, None, :] + cols[None, :, :]
-        block = self.levels.ravel().take(index).sum(axis=1, dtype=np.float64)
-        cum = np.concatenate([np.zeros((1, beams.size)), np.cumsum(block, axis=0)])
+        taken = self.levels.ravel().take(index)
+        # The beams added one by one (cheaper than a reduction over the middle axis).
+        block = taken[:, 0].astype(np.float64)
+        for k in range(1, taken.shape[1]):
+            block += taken[:, k]
+        cum = np.empty((block.shape[0] + 1, beams.size))
+        cum[0] = 0.0
+        np.cumsum(block, axis=0, out=cum[1:])
         return (cum[self.smooth_samples :] - cum[: -self.smooth_samples]) / (
             self.smooth_samples * self.smooth_beams
         )

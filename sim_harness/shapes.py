@@ -279,11 +279,11 @@ class CompositeSolid:
         disc = b * b - 4.0 * a * c
         t = (-b - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * a)
         t = np.where((disc >= 0) & (t > 0) & (c > 0), t, _NO_HIT)
+        if not normals:  # the nearest lobe's distance (the value argmin picks)
+            return np.min(t, axis=0), np.zeros((0, 3))
         win = np.argmin(t, axis=0)
         rays = np.arange(directions.shape[0])
         best_t = t[win, rays]
-        if not normals:
-            return best_t, np.zeros((0, 3))
         best_n = np.zeros_like(directions)
         idx = np.flatnonzero(np.isfinite(best_t))
         if idx.size:

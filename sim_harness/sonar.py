@@ -291,8 +291,9 @@ class RenderLayers:
     seabed_normal_ned: FloatArray
 
 
-def validate_pose(world: World, pose: SonarPose) -> None:
-    """Raise :class:`PoseError` for a pose the renderer cannot use."""
+def validate_pose(world: World, pose: SonarPose) -> float:
+    """Raise :class:`PoseError` for a pose the renderer cannot use; else return the seabed's
+    depth (with relief) under the sonar, m."""
     for name in ("north_m", "east_m", "depth_m", "heading_rad", "pitch_rad", "roll_rad", "tilt_rad"):
         if not math.isfinite(float(getattr(pose, name))):
             raise PoseError(f"must be finite, got {getattr(pose, name)!r}", field=name)
@@ -308,6 +309,7 @@ def validate_pose(world: World, pose: SonarPose) -> None:
             f"north {pose.north_m} m, east {pose.east_m} m",
             field="depth_m",
         )
+    return float(seabed)
 
 
 def power_to_uint8(power: np.ndarray) -> np.ndarray:
@@ -456,7 +458,7 @@ class SonarRenderer:
         """Render one ping and keep the intermediate layers (see :class:`RenderLayers`)."""
         if not math.isfinite(float(timestamp_s)):
             raise PoseError(f"timestamp must be finite, got {timestamp_s!r}")
-        validate_pose(self.world, pose)
+        seabed_depth_m = validate_pose(self.world, pose)
         cfg = self.config
         n_s, n_b = cfg.samples_per_beam, cfg.n_beams
         geo = pose_geometry(
@@ -514,9 +516,10 @@ class SonarRenderer:
             unique, inverse = np.unique(cells_all, return_inverse=True)
             gone_sum = np.bincount(inverse, weights=gone_all)
             total = span_flat[unique]
-            shadow = (total > 0) & (gone_sum >= 0.5 * total) & ~highlight.ravel()[unique]
+            lit = highlight.ravel()[unique]
+            shadow = (total > 0) & (gone_sum >= 0.5 * total) & ~lit
             labels_flat[unique[shadow]] = Label.SHADOW
-            owner_flat[unique[~shadow & ~highlight.ravel()[unique]]] = 0
+            owner_flat[unique[~shadow & ~lit]] = 0
         labels[highlight] = Label.HIGHLIGHT
 
         raw = seabed  # gains are folded into the footprint and the target weights
@@ -528,7 +531,7 @@ class SonarRenderer:
         power = self._add_noise(clean, timestamp_s)
         image = power_to_uint8(power)
         truths = target_truths(geo, casts, runs, self._sampling)
-        altitude = self.world.seabed_depth_m(pose.north_m, pose.east_m) - pose.depth_m
+        altitude = seabed_depth_m - pose.depth_m
         normal = -geo.c_vec / geo.c_norm
         return RenderLayers(
             clean_power=clean,

@@ -96,7 +96,8 @@ def _interp_rows(coarse: np.ndarray, stride: int, n_rows: int) -> np.ndarray:
     lo = coarse[..., :blocks, :]
     hi = coarse[..., np.minimum(np.arange(1, blocks + 1), n_c - 1), :]
     f = (np.arange(stride) / stride).astype(coarse.dtype)[:, None]
-    out = lo[..., :, None, :] + (hi - lo)[..., :, None, :] * f
+    out = np.multiply((hi - lo)[..., :, None, :], f)
+    out += lo[..., :, None, :]
     out = out.reshape(*coarse.shape[:-2], blocks * stride, coarse.shape[-1])
     return np.asarray(out[..., :n_rows, :])
 
@@ -131,9 +132,10 @@ def _branch_rows(
         r_max = geo.height_v_m / (geo.rho[ok] * np.maximum(np.cos(b[ok]), 0.0))
     dr = float(range_edges_m[1] - range_edges_m[0])
     n = range_edges_m.size - 1
-    i0 = int(np.clip(math.floor((float(r_min.min()) - range_edges_m[0]) / dr) - 1 - pad, 0, n))
+    start = float(range_edges_m[0])
+    i0 = min(max(math.floor((float(r_min.min()) - start) / dr) - 1 - pad, 0), n)
     far = float(r_max.max())
-    i1 = n if not math.isfinite(far) else int(np.clip(math.ceil((far - range_edges_m[0]) / dr) + 1 + pad, 0, n))
+    i1 = n if not math.isfinite(far) else min(max(math.ceil((far - start) / dr) + 1 + pad, 0), n)
     return (i0, i1) if i1 > i0 else None
 
 
@@ -179,7 +181,7 @@ def _texture_gain(
     inv_cell = 1.0 / texture.cell_m
     n = centres_m.size
     dr = float(centres_m[1] - centres_m[0]) if n > 1 else texture.cell_m
-    stride = int(np.clip(math.floor(TEXTURE_SAMPLE_CELLS * texture.cell_m / dr), 1, TEXTURE_MAX_STRIDE))
+    stride = min(max(math.floor(TEXTURE_SAMPLE_CELLS * texture.cell_m / dr), 1), TEXTURE_MAX_STRIDE)
     nodes, lower, upper, weight = _row_interp(n, stride)
     r = (centres_m[nodes] * inv_cell).astype(f32)[:, None]  # cell-centre range in tile cells
     # r cos(u) (the edges' mean of cos u) and r sin(u) = sqrt(r^2 - (r cos u)^2)
@@ -205,11 +207,13 @@ def _texture_gain(
     gain = texture.sample_cells(coords[0], coords[1], overwrite=True)
     if stride == 1:
         return gain
-    lo = gain[lower]
-    out = gain[upper]
-    out -= lo
+    if nodes.size == 1:
+        return np.repeat(gain, n, axis=0)
+    # upper == lower + 1: the differences between neighbouring nodes, gathered once
+    step = gain[1:] - gain[:-1]
+    out = step[lower]
     out *= weight
-    out += lo
+    out += gain[lower]
     return out
 
 
@@ -265,13 +269,12 @@ def seabed_branches(
             coarse = np.stack([corr, gn_r * d[..., 0] + ge_r * d[..., 1]]) @ to_all  # (2, n_c, n_beams)
             shift, extra_cos = _interp_rows(coarse.astype(f32), RELIEF_STRIDE, n_e)
             ratio = scale[None, :] / (edges.astype(f32)[:, None] + shift)
-        ratio = np.minimum(ratio, f32(1.0))
+        np.minimum(ratio, f32(1.0), out=ratio)
         acos = arccos01_f32(ratio)
         phi = geo.phi.astype(f32)
         edges_e = phi + acos if sign > 0 else phi - acos
         ha = f32(half_aperture_rad)
-        np.maximum(edges_e, -ha, out=edges_e)
-        np.minimum(edges_e, ha, out=edges_e)
+        np.clip(edges_e, -ha, ha, out=edges_e)
         # along a branch the elevation moves away from phi as the range grows
         near_e, far_e = edges_e[:-1], edges_e[1:]
         lo, hi = (near_e, far_e) if sign > 0 else (far_e, near_e)
@@ -284,13 +287,17 @@ def seabed_branches(
         cos_inc = ratio[:-1] + ratio[1:]
         cos_inc *= (0.5 * geo.rho / geo.c_norm).astype(f32)
         if extra_cos is not None:
-            cos_inc += f32(0.5 / geo.c_norm) * (extra_cos[:-1] + extra_cos[1:])
+            extra = extra_cos[:-1] + extra_cos[1:]
+            extra *= f32(0.5 / geo.c_norm)
+            cos_inc += extra
             np.clip(cos_inc, f32(0.0), f32(1.0), out=cos_inc)
         if half_aperture_rad <= 0.3:
             # beam pattern x cos(mid): cos(x) = exp(-x^2 / 2) to 2e-5 for |x| <= 0.15 rad
-            power = np.exp(f32(pattern_coeff / half_aperture_rad**2 - 0.5) * m2)
+            m2 *= f32(pattern_coeff / half_aperture_rad**2 - 0.5)
+            power = np.exp(m2, out=m2)
         else:
-            power = np.exp(f32(pattern_coeff / half_aperture_rad**2) * m2)
+            m2 *= f32(pattern_coeff / half_aperture_rad**2)
+            power = np.exp(m2, out=m2)
             power *= np.cos(mid)
         if material.roughness == 1.0:
             power *= cos_inc

@@ -107,23 +107,34 @@ class RayBatch:
 
 def ray_batch(casts: list[TargetCast]) -> RayBatch:
     """Lay the casts end to end (see :class:`RayBatch`)."""
-    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("target", "beam", "col", "e", "t", "tsb", "cos", "occ")}
-    for i, c in enumerate(casts):
-        n_j, n_k = c.t.shape
-        shape = (n_j, n_k + 1)
-        parts["target"].append(np.full(n_j * (n_k + 1), i, dtype=np.int64))
-        parts["beam"].append(np.repeat(np.arange(c.j0, c.j0 + n_j), n_k + 1))
-        parts["col"].append(np.tile(np.arange(n_k + 1), n_j))
-        parts["e"].append(np.tile(np.append(c.elevation_rad, c.elevation_rad[-1]), n_j))
-        for key, block, fill in (("t", c.t, np.inf), ("tsb", c.t_seabed, np.inf),
-                                 ("cos", c.cos_incidence, 0.0), ("occ", c.occluding, False)):
-            padded = np.full(shape, fill, dtype=block.dtype)
-            padded[:, :n_k] = block
-            parts[key].append(padded.ravel())
-    cat = {k: np.concatenate(v) for k, v in parts.items()}
-    widths = np.concatenate([np.full(c.t.shape[0] * (c.t.shape[1] + 1), c.t.shape[1]) for c in casts])
-    return RayBatch(cat["target"], cat["beam"], cat["col"], cat["e"], cat["t"], cat["tsb"], cat["cos"],
-                    cat["occ"], cat["col"] == widths)
+    n_j = np.array([c.t.shape[0] for c in casts], dtype=np.int64)
+    n_k = np.array([c.t.shape[1] for c in casts], dtype=np.int64)
+    rows = np.repeat(np.arange(len(casts)), n_j)  # cast of each block row
+    width = n_k[rows] + 1  # rays per block row, padding included
+    total = int(width.sum())
+    row_start = np.cumsum(width) - width
+    # within-row position of every ray (the row's rays, then its padding ray)
+    col = np.arange(total) - np.repeat(row_start, width)
+    target = np.repeat(rows, width)
+    first_row = np.cumsum(n_j) - n_j
+    beam = np.repeat(np.array([c.j0 for c in casts], dtype=np.int64)[rows] + np.arange(rows.size) - first_row[rows],
+                     width)
+    e = np.empty(total)
+    t = np.full(total, np.inf)
+    tsb = np.full(total, np.inf)
+    cos = np.zeros(total)
+    occ = np.zeros(total, dtype=bool)
+    start = 0
+    for c in casts:
+        rows_c, cols_c = c.t.shape
+        stop = start + rows_c * (cols_c + 1)
+        e_blk = e[start:stop].reshape(rows_c, cols_c + 1)
+        e_blk[:, :cols_c] = c.elevation_rad
+        e_blk[:, cols_c] = c.elevation_rad[-1]
+        for out, block in ((t, c.t), (tsb, c.t_seabed), (cos, c.cos_incidence), (occ, c.occluding)):
+            out[start:stop].reshape(rows_c, cols_c + 1)[:, :cols_c] = block
+        start = stop
+    return RayBatch(target, beam, col, e, t, tsb, cos, occ, col == n_k[target])
 
 
 @dataclass(frozen=True, eq=False)
@@ -293,7 +304,8 @@ def target_echo(
         np.minimum(blk, np.where(c.occluding, c.t, np.inf), out=blk)
     k0 = np.array([c.k0 for c in casts])
     kglob = k0[batch.target] - k_lo + batch.col
-    visible = batch.occluding & (batch.t <= best[batch.beam, kglob]) & (np.abs(batch.e) <= sp.half_aperture_rad)
+    visible = (batch.occluding & (batch.t <= best.ravel()[batch.beam * best.shape[1] + kglob])
+               & (np.abs(batch.e) <= sp.half_aperture_rad))
     mu = np.array([10.0 ** (world.material(c.placed.spec.material).backscatter_db / 10.0) for c in casts])
     rough = np.array([world.material(c.placed.spec.material).roughness for c in casts])
     is_rock = np.array([c.placed.spec.shape == "rock" for c in casts])
@@ -338,7 +350,7 @@ def target_echo(
     flat = cell * n_b + batch.beam[ray]
     # only the flat range the hits touch: the rest of the image gets no target echo
     first_cell = int(flat.min()) if flat.size else 0
-    power = np.bincount(flat - first_cell, weights=w * sp.row_gain[cell, 0])
+    power = np.bincount(flat - first_cell, weights=w * sp.row_gain.ravel()[cell])
     # nearer targets overwrite: a stable sort, farthest first (uint8 keys sort by radix)
     far_first = np.argsort((len(casts) - 1 - batch.target[ray]).astype(np.uint8), kind="stable")
     owner[flat[far_first]] = (batch.target[ray[far_first]] + 1).astype(np.uint8)
@@ -378,10 +390,10 @@ def _interval_cells(
     rep = np.repeat(idx, lengths)
     start = np.repeat(np.cumsum(lengths) - lengths, lengths)
     cell = c0[rep] + (np.arange(rep.size) - start)
-    col = beam[rep]
-    ov = np.minimum(branch.hi[cell, col], hi[rep]) - np.maximum(branch.lo[cell, col], lo[rep])
+    local = cell * n_b + beam[rep]
+    ov = np.minimum(branch.hi.ravel()[local], hi[rep]) - np.maximum(branch.lo.ravel()[local], lo[rep])
     hit = ov > 0
-    return cell[hit] * n_b + col[hit], ov[hit], rep[hit]
+    return local[hit], ov[hit], rep[hit]
 
 
 def hidden_seabed(

@@ -161,12 +161,14 @@ class Relief:
         """Relief height (positive up), m, broadcast over the inputs."""
         n = np.asarray(north_m, dtype=np.float64)
         e = np.asarray(east_m, dtype=np.float64)
-        # one component at a time on the inputs' shape (summed in component order, as
-        # ``np.sum(..., axis=-1)`` over the few components does): no (..., n) temporaries
-        h = np.zeros(np.broadcast_shapes(n.shape, e.shape))
-        for a, (kn, ke), ph in zip(self._a, self._k, self._phase, strict=True):
-            h += a * np.cos(n * kn + e * ke + ph)
-        return h
+        shape, n_flat, e_flat = _rows_of(n, e)
+        # all components at once, (n_components, points), summed row by row in component order
+        arg = n_flat * self._k[:, :1]
+        arg += e_flat * self._k[:, 1:]
+        arg += self._phase[:, None]
+        np.cos(arg, out=arg)
+        arg *= self._a[:, None]
+        return np.asarray(_sum_rows(arg).reshape(shape), dtype=np.float64)
 
     def gradient(self, north_m: ArrayLike, east_m: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """(d height / d north, d height / d east), dimensionless."""
@@ -184,18 +186,41 @@ class Relief:
         """
         n: NDArray[np.floating] = np.asarray(north_m, dtype=dtype)
         e: NDArray[np.floating] = np.asarray(east_m, dtype=dtype)
-        shape = np.broadcast_shapes(n.shape, e.shape)
-        h: NDArray[np.floating] = np.zeros(shape, dtype)
-        gn: NDArray[np.floating] = np.zeros(shape, dtype)
-        ge: NDArray[np.floating] = np.zeros(shape, dtype)
-        for a, (kn, ke), ph in zip(self._a, self._k, self._phase, strict=True):
-            a, kn, ke, ph = dtype(a), dtype(kn), dtype(ke), dtype(ph)
-            arg = n * kn + e * ke + ph
-            h += a * np.cos(arg)
-            s = -a * np.sin(arg)
-            gn += s * kn
-            ge += s * ke
+        shape, n_flat, e_flat = _rows_of(n, e)
+        # all components at once, (n_components, points), summed row by row in component order
+        a: NDArray[np.floating] = self._a.astype(dtype)[:, None]
+        kn: NDArray[np.floating] = self._k[:, :1].astype(dtype)
+        ke: NDArray[np.floating] = self._k[:, 1:].astype(dtype)
+        arg = n_flat * kn
+        arg += e_flat * ke
+        arg += self._phase.astype(dtype)[:, None]
+        s = np.sin(arg)
+        np.cos(arg, out=arg)
+        arg *= a
+        s *= -a
+        h: NDArray[np.floating] = _sum_rows(arg).reshape(shape)
+        gn: NDArray[np.floating] = _sum_rows(s * kn).reshape(shape)
+        ge: NDArray[np.floating] = _sum_rows(s * ke).reshape(shape)
         return h, gn, ge
+
+
+def _rows_of(
+    n: NDArray[np.floating], e: NDArray[np.floating]
+) -> tuple[tuple[int, ...], NDArray[np.floating], NDArray[np.floating]]:
+    """(broadcast shape, ``n`` and ``e`` broadcast to it as (1, points) rows)."""
+    if n.shape == e.shape:
+        return n.shape, n.reshape(1, -1), e.reshape(1, -1)
+    shape = np.broadcast_shapes(n.shape, e.shape)
+    return shape, np.broadcast_to(n, shape).reshape(1, -1), np.broadcast_to(e, shape).reshape(1, -1)
+
+
+def _sum_rows(x: NDArray[np.floating]) -> NDArray[np.floating]:
+    """Sum of the rows of ``x`` (k, m), added one after another onto zero (the order of a
+    loop over the rows, unlike numpy's pairwise summation), shape (m,)."""
+    out = x[0] + x.dtype.type(0.0)
+    for row in x[1:]:
+        out += row
+    return out
 
 
 @dataclass(frozen=True)

@@ -209,3 +209,41 @@ def test_relief_in_float32_stays_within_a_micrometre(rng: np.random.Generator) -
     np.testing.assert_allclose(gn32, gn64, atol=1e-5)
     np.testing.assert_allclose(ge32, ge64, atol=1e-5)
     np.testing.assert_array_equal(relief.height_m(n, e), h64)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n_components=st.integers(1, 32),
+    rows=st.integers(1, 4),
+    cols=st.integers(1, 5),
+    seed=st.integers(0, 1000),
+    float32=st.booleans(),
+)
+def test_relief_equals_its_sinusoids_summed_in_order(
+    n_components: int, rows: int, cols: int, seed: int, float32: bool
+) -> None:
+    # every point (broadcast (rows, 1) x (cols,), and a single point) is the sum of the
+    # components in their order, bit for bit, as a per-point loop computes it
+    relief = Relief(0.002, 20.0, seed=seed, n_components=n_components)
+    rng = np.random.default_rng(seed)
+    n, e = rng.uniform(-50, 50, (rows, 1)), rng.uniform(-50, 50, cols)
+    dtype = np.float32 if float32 else np.float64
+    h, gn, ge = relief.height_and_gradient(n, e, dtype=dtype)
+    heights = relief.height_m(n, e)
+    assert h.shape == gn.shape == ge.shape == heights.shape == (rows, cols)
+    assert h.dtype == dtype and heights.dtype == np.float64
+    a, k, phase = relief._a, relief._k, relief._phase  # the seeded components
+    for i in range(rows):
+        for j in range(cols):
+            ni, ej = dtype(n[i, 0]), dtype(e[j])
+            want = [dtype(0.0)] * 3
+            want64 = 0.0
+            for c in range(n_components):
+                ac, kn, ke, ph = dtype(a[c]), dtype(k[c, 0]), dtype(k[c, 1]), dtype(phase[c])
+                arg = ni * kn + ej * ke + ph
+                s = -ac * np.sin(arg)
+                want = [want[0] + ac * np.cos(arg), want[1] + s * kn, want[2] + s * ke]
+                want64 += a[c] * np.cos(n[i, 0] * k[c, 0] + e[j] * k[c, 1] + phase[c])
+            assert [h[i, j], gn[i, j], ge[i, j]] == want
+            assert heights[i, j] == want64
+    assert float(relief.height_m(n[0, 0], e[0])) == heights[0, 0]
