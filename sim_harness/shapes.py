@@ -70,46 +70,18 @@ class BoxSolid:
     def intersect(
         self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
     ) -> tuple[FloatArray, FloatArray]:
-        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3)."""
-        axes = _local_axes(self.yaw_rad)
-        o = axes @ (origin - np.array([self.north_m, self.east_m, self.base_depth_m]))
-        x, y, z = _components(directions)
-        # the ray in box axes, column by column (no BLAS: its threads hurt here). The axes'
-        # zero entries add nothing, so these are bit for bit ``directions @ axes.T``.
-        cols = (x * axes[0, 0] + y * axes[0, 1], x * axes[1, 0] + y * axes[1, 1], z)
-        half = (self.length_m / 2, self.width_m / 2)
-        bounds = ((-half[0], half[0]), (-half[1], half[1]), (-self.height_m, self.footing_m))
-        entry = exit_ = np.zeros(0)
-        entry_axis = np.zeros(directions.shape[0], dtype=np.int8)
-        with np.errstate(all="ignore"):
-            for axis in range(3):
-                comp = cols[axis]
-                # a zero component: treat as tiny, so the slab is all or nothing
-                inv = 1.0 / np.where(comp == 0.0, 1e-300, comp)
-                lo, hi = bounds[axis]
-                t1 = (lo - o[axis]) * inv
-                t2 = (hi - o[axis]) * inv
-                near = np.minimum(t1, t2)
-                far = np.maximum(t1, t2)
-                if axis == 0:  # the first slab sets the interval
-                    entry, exit_ = near, far
-                    continue
-                np.minimum(exit_, far, out=exit_)
-                later = near > entry
-                np.copyto(entry, near, where=later)
-                entry_axis[later] = axis
-        hit = (entry <= exit_) & (entry > 0)
-        t = np.where(hit, entry, _NO_HIT)
-        if not normals:
-            return t, np.zeros((0, 3))
-        normal = np.zeros_like(directions)
-        idx = np.nonzero(hit)[0]
-        if idx.size:
-            ax = entry_axis[idx]
-            d_ax = np.choose(ax, [c[idx] for c in cols])
-            # the entry face's outward normal, in NED: -sign(d_axis) * (row `ax` of axes)
-            normal[idx] = -np.sign(d_ax)[:, None] * axes[ax]
-        return t, normal
+        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3): the slab
+        test of :func:`_box_batch` with this one box (its parameters broadcast as scalars).
+
+        Returns
+        -------
+        (t, normal)
+            Range to the first hit along each ray, m (``inf`` for a miss), shape (n,); the
+            outward unit normal of the face hit, NED, shape (n, 3) (zeros for misses),
+            or shape (0, 3) when ``normals`` is False.
+        """
+        which = np.zeros(directions.shape[0], dtype=np.intp)
+        return _box_batch([self], which, origin, directions, normals)
 
 
 @dataclass(frozen=True)
@@ -138,34 +110,15 @@ class CylinderSolid:
     def intersect(
         self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
     ) -> tuple[FloatArray, FloatArray]:
-        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3)."""
-        top = self.base_depth_m - self.height_m
-        bottom = self.base_depth_m + self.footing_m
-        ox, oy = origin[0] - self.north_m, origin[1] - self.east_m
-        dx, dy, dz = _components(directions)
-        a = dx * dx + dy * dy
-        b = 2.0 * (ox * dx + oy * dy)
-        c = ox * ox + oy * oy - self.radius_m**2
-        disc = b * b - 4.0 * a * c
-        with np.errstate(all="ignore"):
-            t_side = (-b - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * a)
-            z_side = origin[2] + t_side * dz
-            side_ok = (a > 0) & (disc >= 0) & (t_side > 0) & (z_side >= top) & (z_side <= bottom)
-            t_side = np.where(side_ok, t_side, _NO_HIT)
-            t_cap = (top - origin[2]) / dz
-            px, py = ox + t_cap * dx, oy + t_cap * dy
-            cap_ok = (dz > 0) & (t_cap > 0) & (px * px + py * py <= self.radius_m**2)
-        t_cap = np.where(cap_ok, t_cap, _NO_HIT)
-        use_cap = t_cap < t_side
-        t = np.minimum(t_cap, t_side)
-        if not normals:
-            return t, np.zeros((0, 3))
-        hx, hy = ox + np.where(np.isfinite(t), t, 0.0) * dx, oy + np.where(np.isfinite(t), t, 0.0) * dy
-        rad = np.hypot(hx, hy)
-        rad = np.where(rad > 0, rad, 1.0)
-        normal = np.stack([hx / rad, hy / rad, np.zeros_like(hx)], axis=1)
-        normal[use_cap] = (0.0, 0.0, -1.0)
-        return t, normal
+        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3): the
+        arithmetic of :func:`_cylinder_batch` with this one solid (its parameters as scalars).
+
+        Returns ``(t, normal)``: range to the first hit, m (``inf`` for a miss), shape (n,);
+        the outward unit normal there, NED, shape (n, 3) (zeros for misses), or shape
+        (0, 3) when ``normals`` is False.
+        """
+        which = np.zeros(directions.shape[0], dtype=np.intp)
+        return _cylinder_batch([self], which, origin, directions, normals)
 
 
 @dataclass(frozen=True)
@@ -192,44 +145,15 @@ class EllipsoidSolid:
     def intersect(
         self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
     ) -> tuple[FloatArray, FloatArray]:
-        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3)."""
-        axes = _local_axes(self.yaw_rad)
-        scale = np.array([2.0 / self.length_m, 2.0 / self.width_m, 1.0 / self.height_m])
-        o = (axes @ (origin - np.array([self.north_m, self.east_m, self.base_depth_m]))) * scale
-        # explicit column arithmetic, summed in the order numpy's 3-term einsum uses
-        # ((term 0 + term 2) + term 1), so the results are bit for bit those of einsum (the
-        # axes' zero entries add nothing)
-        x, y, z = _components(directions)
-        d0 = (x * axes[0, 0] + y * axes[0, 1]) * scale[0]
-        d1 = (x * axes[1, 0] + y * axes[1, 1]) * scale[1]
-        d2 = z * scale[2]
-        a = (d0 * d0 + d2 * d2) + d1 * d1
-        b = 2.0 * ((d0 * o[0] + d2 * o[2]) + d1 * o[1])
-        c = float(o @ o) - 1.0
-        disc = b * b - 4.0 * a * c
-        t = (-b - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * a)
-        ok = (disc >= 0) & (t > 0) & (c > 0)
-        t = np.where(ok, t, _NO_HIT)
-        if not normals:
-            return t, np.zeros((0, 3))
-        normal = np.zeros_like(directions)
-        idx = np.nonzero(ok)[0]
-        if idx.size:
-            normal[idx] = self.normals_at(origin, directions[idx], t[idx])
-        return t, normal
+        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3): the
+        arithmetic of :func:`_ellipsoid_batch` with this one solid (its parameters as scalars).
 
-    def normals_at(self, origin: FloatArray, directions: FloatArray, t: FloatArray) -> FloatArray:
-        """Outward unit normals (n, 3), NED, where rays from ``origin`` along ``directions``
-        (n, 3) meet the surface at distances ``t`` (n,) (as :meth:`intersect` found them)."""
-        axes = _local_axes(self.yaw_rad)
-        scale = np.array([2.0 / self.length_m, 2.0 / self.width_m, 1.0 / self.height_m])
-        o = (axes @ (origin - np.array([self.north_m, self.east_m, self.base_depth_m]))) * scale
-        x, y, z = _components(directions)
-        d = np.stack([(x * axes[0, 0] + y * axes[0, 1]) * scale[0], (x * axes[1, 0] + y * axes[1, 1]) * scale[1],
-                      z * scale[2]], axis=1)
-        p = o + t[:, None] * d
-        grad = np.einsum("ij,jk->ik", p * scale, axes)  # gradient of |M x|^2 / 2, back in NED
-        return np.asarray(grad / np.sqrt(np.einsum("ij,ij->i", grad, grad))[:, None])
+        Returns ``(t, normal)``: range to the first hit, m (``inf`` for a miss), shape (n,);
+        the outward unit normal there, NED, shape (n, 3) (zeros for misses), or shape
+        (0, 3) when ``normals`` is False.
+        """
+        which = np.zeros(directions.shape[0], dtype=np.intp)
+        return _ellipsoid_batch([self], which, origin, directions, normals)
 
 
 @dataclass(frozen=True)
@@ -289,7 +213,7 @@ class CompositeSolid:
         if idx.size:
             lobe = win[idx]
             ti = best_t[idx]
-            # EllipsoidSolid.normals_at: p * scale in the lobe's axes, back to NED as einsum
+            # as _ellipsoid_batch: p * scale in the lobe's axes, back to NED as einsum
             # sums it ((term 0 + term 1) + term 2 over the axes' rows)
             ps0 = (o0[lobe, 0] + ti * d0[lobe, idx]) * s0[lobe, 0]
             ps1 = (o1[lobe, 0] + ti * d1[lobe, idx]) * s1[lobe, 0]
