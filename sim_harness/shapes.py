@@ -33,6 +33,18 @@ def _components(directions: FloatArray) -> tuple[FloatArray, FloatArray, FloatAr
             np.ascontiguousarray(directions[:, 2]))
 
 
+def _one_solid(batch: Callable[..., tuple[FloatArray, FloatArray]], solid: object, origin: FloatArray,
+               directions: FloatArray, normals: bool) -> tuple[FloatArray, FloatArray]:
+    """Rays from ``origin`` (3,) along unit ``directions`` (n, 3) against one solid, with the
+    arithmetic of its kind's batch function (its parameters broadcast as scalars).
+
+    Returns ``(t, normal)``: range to the first hit, m (``inf`` for a miss), shape (n,); the
+    outward unit normal there, NED, shape (n, 3) (zeros for misses), or shape (0, 3) when
+    ``normals`` is False.
+    """
+    return batch([solid], np.zeros(directions.shape[0], dtype=np.intp), origin, directions, normals)
+
+
 def _local_axes(yaw_rad: float) -> FloatArray:
     """Rows: the length axis, the width axis and down, in NED."""
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
@@ -70,18 +82,8 @@ class BoxSolid:
     def intersect(
         self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
     ) -> tuple[FloatArray, FloatArray]:
-        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3): the slab
-        test of :func:`_box_batch` with this one box (its parameters broadcast as scalars).
-
-        Returns
-        -------
-        (t, normal)
-            Range to the first hit along each ray, m (``inf`` for a miss), shape (n,); the
-            outward unit normal of the face hit, NED, shape (n, 3) (zeros for misses),
-            or shape (0, 3) when ``normals`` is False.
-        """
-        which = np.zeros(directions.shape[0], dtype=np.intp)
-        return _box_batch([self], which, origin, directions, normals)
+        """First hits of rays from ``origin`` along ``directions`` (:func:`_one_solid`)."""
+        return _one_solid(_box_batch, self, origin, directions, normals)
 
 
 @dataclass(frozen=True)
@@ -110,15 +112,8 @@ class CylinderSolid:
     def intersect(
         self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
     ) -> tuple[FloatArray, FloatArray]:
-        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3): the
-        arithmetic of :func:`_cylinder_batch` with this one solid (its parameters as scalars).
-
-        Returns ``(t, normal)``: range to the first hit, m (``inf`` for a miss), shape (n,);
-        the outward unit normal there, NED, shape (n, 3) (zeros for misses), or shape
-        (0, 3) when ``normals`` is False.
-        """
-        which = np.zeros(directions.shape[0], dtype=np.intp)
-        return _cylinder_batch([self], which, origin, directions, normals)
+        """First hits of rays from ``origin`` along ``directions`` (:func:`_one_solid`)."""
+        return _one_solid(_cylinder_batch, self, origin, directions, normals)
 
 
 @dataclass(frozen=True)
@@ -145,15 +140,8 @@ class EllipsoidSolid:
     def intersect(
         self, origin: FloatArray, directions: FloatArray, *, normals: bool = True
     ) -> tuple[FloatArray, FloatArray]:
-        """First hits of rays from ``origin`` (3,) along unit ``directions`` (n, 3): the
-        arithmetic of :func:`_ellipsoid_batch` with this one solid (its parameters as scalars).
-
-        Returns ``(t, normal)``: range to the first hit, m (``inf`` for a miss), shape (n,);
-        the outward unit normal there, NED, shape (n, 3) (zeros for misses), or shape
-        (0, 3) when ``normals`` is False.
-        """
-        which = np.zeros(directions.shape[0], dtype=np.intp)
-        return _ellipsoid_batch([self], which, origin, directions, normals)
+        """First hits of rays from ``origin`` along ``directions`` (:func:`_one_solid`)."""
+        return _one_solid(_ellipsoid_batch, self, origin, directions, normals)
 
 
 @dataclass(frozen=True)
