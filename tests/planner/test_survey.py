@@ -139,10 +139,17 @@ def test_stay_inside_keeps_every_path_inside(area: SurveyArea, heading_deg: floa
                        stay_inside=True)
     _check(area, plan, stay_inside=True)
     free = plan_survey(area, SETTINGS, choice=CHOICE, heading_rad=math.radians(heading_deg))
-    # Staying inside can only lose coverage, and what it loses is reported.
+    # Staying inside does not gain coverage, and what it loses is reported. Not to the
+    # last square centimetre: the two plans end their lanes differently, so a sliver at a
+    # sharp vertex (a few cm^2 of a 10^4 m^2 area, as hypothesis once found) may be seen
+    # by one and missed by the other.
+    region_m2 = area.coverage_region.area
+    sliver_m2 = 1e-5 * region_m2
     for inside, out in zip(plan.passes, free.passes, strict=True):
-        assert inside.coverage_fraction <= out.coverage_fraction + 1e-9
-        assert inside.uncovered_area_m2 >= out.uncovered_area_m2 - 1e-6
+        assert inside.uncovered_area_m2 >= out.uncovered_area_m2 - sliver_m2
+        assert inside.coverage_fraction <= out.coverage_fraction + sliver_m2 / region_m2
+        assert inside.uncovered_area_m2 == pytest.approx((1.0 - inside.coverage_fraction) * region_m2,
+                                                         abs=max(sliver_m2, 1e-6))
 
 
 def test_rectangle_known_answer() -> None:
