@@ -8,6 +8,7 @@ event times. Measurements are truth plus Gaussian noise.
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -145,8 +146,7 @@ def run(
     flt: AltitudeFilter, dive: Dive, *, skip: tuple[float, float] | None = None, tell_maneuvers: bool = True
 ) -> AltitudeFilter:
     """Feed the whole dive; return the filter."""
-    for _ in feed(flt, dive, skip=skip, tell_maneuvers=tell_maneuvers):
-        pass
+    deque(feed(flt, dive, skip=skip, tell_maneuvers=tell_maneuvers), maxlen=0)  # drain the generator
     return flt
 
 
