@@ -35,7 +35,9 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import cast
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -158,29 +160,84 @@ def _central(columns: tuple[int, ...], fraction: float) -> list[int]:
     return cols[start : start + keep]
 
 
-#: An empty float array shared by the results without edges (read-only).
-_NONE = np.zeros(0)
-_NONE.flags.writeable = False
-
-
 @dataclass(frozen=True)
 class _Edges:
-    columns: list[int]
-    tops: NDArray[np.float64]
-    ends: NDArray[np.float64]
-    far_cut: bool
+    """The edges found in the pairs' central beams, all pairs' beams in one array.
 
-
-def _window_mean(cum: NDArray[np.float64], a: NDArray[np.intp], b: NDArray[np.intp]) -> NDArray[np.float64]:
-    """Per column j, mean of the rows [a_j, b_j) of the array whose cumulative sum is ``cum``.
-
-    An empty window gives NaN (call with numpy's invalid warnings off).
+    ``columns`` lists the beams with both edges, grouped by pair in the pairs' order:
+    ``counts[n]`` of them belong to pair ``n``; ``rows[0]`` and ``rows[1]`` hold their
+    shadow starts and ends (fractional rows). ``far_cut[n]`` is True when most of pair
+    ``n``'s beams are cut by the band's far edge.
     """
-    n = cum.shape[0] - 1
-    a = np.minimum(np.maximum(a, 0), n)
-    b = np.minimum(np.maximum(b, 0), n)
-    cols = np.arange(cum.shape[1])
-    return (cum[b, cols] - cum[a, cols]) / (b - a)
+
+    columns: NDArray[np.intp]
+    rows: NDArray[np.float64]
+    counts: list[int]
+    far_cut: list[bool]
+
+
+def _no_edges(far_cut: list[bool]) -> _Edges:
+    """The :class:`_Edges` of pairs none of whose beams gave both edges."""
+    return _Edges(np.zeros(0, dtype=np.intp), np.zeros((2, 0)), [0] * len(far_cut), far_cut)
+
+
+def _clamp(values: NDArray[np.intp], low: int, high: int) -> NDArray[np.intp]:
+    """``values`` clamped to [low, high] (two ufunc calls, cheaper than ``np.clip``)."""
+    return np.minimum(np.maximum(values, low), high)
+
+
+def _window_mean(
+    cum: NDArray[np.float64], bounds: NDArray[np.intp], cols: NDArray[np.intp]
+) -> NDArray[np.float64]:
+    """Per window j, mean of the rows [bounds[0, j], bounds[1, j]) of column ``cols[j]``.
+
+    ``cum`` is the cumulative sum (:func:`_cumsum0`) of the array averaged. An empty
+    window gives NaN (call with numpy's invalid warnings off).
+    """
+    a, b = _clamp(bounds, 0, cum.shape[0] - 1)
+    at = cum[(a, b), cols]
+    return (at[1] - at[0]) / (b - a)
+
+
+#: Most channels of an OpenCV image (the columns :func:`_cumsum0` hands to OpenCV at once).
+_CV_MAX_CHANNELS = 128
+
+
+def _cumsum0(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Cumulative sums down the rows with a row of zeros first, shape (n + 1, m).
+
+    OpenCV's integral image of the values taken as one column of m-channel pixels holds
+    these sums in its second column: per channel, each row's sum is the previous one
+    plus (zero plus) the value, the additions of ``np.cumsum`` in the same order, so the
+    same sums (the values summed here are never -0.0), in about half numpy's time.
+    Wider arrays than OpenCV's channels allow take ``np.cumsum``.
+    """
+    n, m = values.shape
+    if m <= _CV_MAX_CHANNELS:
+        image = np.ascontiguousarray(values).reshape(n, 1, m)
+        return cast(NDArray[np.float64], cv2.integral(image, sdepth=cv2.CV_64F).reshape(n + 1, 2, m)[:, 1])
+    out = np.empty((n + 1, m))
+    out[0] = 0.0
+    np.cumsum(values, axis=0, out=out[1:])
+    return out
+
+
+def _smoothed_windows(
+    segmentation: Segmentation, start_rows: NDArray[np.intp], length: int, beams: NDArray[np.intp]
+) -> NDArray[np.float64]:
+    """``segmentation.smoothed_windows(start_rows, length, beams)``: the same sums, made faster.
+
+    The beams are added in float64 one after another by one reduction, and the running
+    sums down the rows come from :func:`_cumsum0`.
+    """
+    n_rows, n_cols = segmentation.levels.shape
+    k_s, k_b = segmentation.smooth_samples, segmentation.smooth_beams
+    h_s, h_b = k_s // 2, k_b // 2
+    rows = _clamp(start_rows - h_s + np.arange(length + 2 * h_s)[:, None], 0, n_rows - 1)
+    cols = _clamp(beams + np.arange(-h_b, h_b + 1)[:, None], 0, n_cols - 1)
+    taken = segmentation.levels.ravel().take((rows * n_cols)[None, :, :] + cols[:, None, :])
+    cum = _cumsum0(np.add.reduce(taken, axis=0, dtype=np.float64))
+    return (cum[k_s:] - cum[:-k_s]) / (k_s * k_b)
 
 
 def _refine_shadow_rows(
@@ -199,29 +256,35 @@ def _refine_shadow_rows(
     d = segmentation.row_step
     n_rows = segmentation.levels.shape[0]
     n = beams.size
-    # Two windows of 2d rows per beam: around the first cell and around the last one.
-    starts = np.concatenate([s_first - d, s_last - d + 1])
-    both = np.concatenate([beams, beams])
-    rows = starts[None, :] + np.arange(2 * d)[:, None]
-    rows_c = np.minimum(np.maximum(rows, 0), n_rows - 1)
-    smoothed = segmentation.smoothed_windows(starts, 2 * d, both)
-    limit = np.interp(rows_c, segmentation.level_rows, segmentation.grid_shadow_limit)
-    shadow = (
-        (smoothed < limit)
-        & (rows_c >= segmentation.band_start_rows[both][None, :])
-        & (rows_c <= segmentation.band_stop_rows[both][None, :])
-        & (rows == rows_c)
+    # Two windows per beam, one per column of the arrays below, from d rows before the
+    # first cell (columns 0 .. n - 1) and from d - 1 rows before the last one (columns
+    # n .. 2n - 1). Searched: the rows before the first cell's sampled row (d i + d // 2),
+    # backwards, for the last row that is not shadow; the n_after rows after the last
+    # cell's sampled row (d // 2 in its window), forwards, for the first.
+    n_before = d + d // 2
+    n_after = 2 * d - d // 2 - 1
+    starts = np.concatenate((s_first - d, s_last - d + 1))
+    both = np.concatenate((beams, beams))
+    # (one row more than searched, so that both searches have n_before rows)
+    rows = np.arange(2 * d + 1)[:, None] + starts
+    smoothed = _smoothed_windows(segmentation, starts, 2 * d + 1, both)
+    # (rows outside the image are not shadow below, whatever their limit)
+    limit = np.interp(rows, segmentation.level_rows, segmentation.grid_shadow_limit)
+    # Shadow rows lie inside the image and inside the band.
+    band_start = np.maximum(segmentation.band_start_rows[both], 0)
+    band_stop = np.minimum(segmentation.band_stop_rows[both], n_rows - 1)
+    not_shadow = ~((smoothed < limit) & (rows >= band_start) & (rows <= band_stop))
+    search = np.concatenate(
+        (not_shadow[n_before - 1 :: -1, :n], not_shadow[d // 2 + 1 : d // 2 + 1 + n_before, n:]), axis=1
     )
-    local = np.arange(2 * d)[:, None]
-    # the sampled row of the first cell is at d + d // 2, that of the last at d // 2
-    before, has_before = _last_true(~shadow[:, :n] & (local < d + d // 2))
-    first = np.where(has_before, starts[:n] + before + 1, np.maximum(s_first - d, 0))
-    after, has_after = _first_true(~shadow[:, n:] & (local > d // 2))
-    last = np.where(has_after, starts[n:] + after - 1, np.minimum(s_last + d, n_rows - 1))
-    return first.astype(np.intp), last.astype(np.intp)
+    search[n_after:, n:] = False
+    k, found = _first_true(search, 0, np.arange(2 * n))
+    first = np.where(found[:n], s_first + d // 2 - k[:n], np.maximum(s_first - d, 0))
+    last = np.where(found[n:], starts[n:] + d // 2 + k[n:], np.minimum(s_last + d, n_rows - 1))
+    return first.astype(np.intp, copy=False), last.astype(np.intp, copy=False)
 
 
-def _edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> list[_Edges]:
+def _edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> _Edges:
     """Fractional rows of the shadow start and end in each pair's central beams.
 
     All pairs' beams are processed together, each beam in its own window of rows (from
@@ -233,11 +296,35 @@ def _edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig
         return _edges_quiet(segmentation, pairs, cfg)
 
 
-def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> list[_Edges]:
+def _last_true(
+    mask: NDArray[np.bool_], stop: int, cols: NDArray[np.intp]
+) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+    """Per column, the last row before ``stop`` where a mask holds, and whether any does.
+
+    ``mask`` holds that mask's rows reversed (its row i is row stop - 1 - i), so the
+    search runs forwards; ``cols`` is ``arange(mask.shape[1])``.
+    """
+    back = np.argmax(mask, axis=0)
+    return stop - 1 - back, mask[back, cols]
+
+
+def _first_true(
+    mask: NDArray[np.bool_], start: int, cols: NDArray[np.intp]
+) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+    """Per column, the first row where ``mask`` holds (counted from row ``start``), and whether any does.
+
+    ``cols`` is ``arange(mask.shape[1])``.
+    """
+    ahead = np.argmax(mask, axis=0)
+    return start + ahead, mask[ahead, cols]
+
+
+def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> _Edges:
     """:func:`_edges` with numpy's divide and invalid warnings already off."""
     n_rows, n_cols = segmentation.levels.shape
     half = cfg.smooth_samples // 2
     k_smooth = cfg.smooth_samples
+    n_pairs = len(pairs)
     owner_list: list[int] = []
     beam_list: list[int] = []
     shadow_list: list[int] = []
@@ -249,17 +336,18 @@ def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: Measure
         shadow_list += [pair.shadow.label] * len(central)
         highlight_list += [pair.highlight.label] * len(central)
     if not beam_list:
-        return [_Edges([], _NONE, _NONE, False) for _ in pairs]
+        return _no_edges([False] * n_pairs)
     beams = np.array(beam_list, dtype=np.intp)
     s_labels = np.array(shadow_list, dtype=np.intp)
     t_labels = np.array(highlight_list, dtype=np.intp)
     # The regions' first and last rows in those beams (see Segmentation.column_extents).
     s_last = segmentation.shadow_rows[1][s_labels, beams]
+    owner = np.array(owner_list, dtype=np.intp)
     ok = s_last >= 0
-    owner = np.array(owner_list, dtype=np.intp)[ok]
-    beams, s_labels, t_labels, s_last = beams[ok], s_labels[ok], t_labels[ok], s_last[ok]
-    if beams.size == 0:
-        return [_Edges([], _NONE, _NONE, False) for _ in pairs]
+    if not ok.all():
+        owner, beams, s_labels, t_labels, s_last = owner[ok], beams[ok], s_labels[ok], t_labels[ok], s_last[ok]
+        if beams.size == 0:
+            return _no_edges([False] * n_pairs)
     s_first = segmentation.shadow_rows[0][s_labels, beams]
     # The highlight's first row (where it is in the beam) bounds the window below.
     t_first = np.maximum(segmentation.highlight_rows[0][t_labels, beams], 0)
@@ -269,14 +357,15 @@ def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: Measure
     ba = s_last + 1 + k_smooth
     bb = np.minimum(n_rows, ba + cfg.level_samples)
     cut = bb - ba < max(2, cfg.level_samples // 2)
-    n_beams = np.bincount(owner, minlength=len(pairs))
-    n_cut = np.bincount(owner[cut], minlength=len(pairs))
-    keep = ~cut
-    owner, beams, t_first, s_first, s_last, ba, bb = (
-        v[keep] for v in (owner, beams, t_first, s_first, s_last, ba, bb)
-    )
+    n_beams = np.bincount(owner, minlength=n_pairs)
+    n_cut = np.bincount(owner[cut], minlength=n_pairs)
+    if cut.any():
+        keep = ~cut
+        owner, beams, t_first, s_first, s_last, ba, bb = (
+            v[keep] for v in (owner, beams, t_first, s_first, s_last, ba, bb)
+        )
     if beams.size == 0:
-        return [_Edges([], _NONE, _NONE, bool(2 * c > b)) for c, b in zip(n_cut, n_beams, strict=True)]
+        return _no_edges([bool(2 * c > b) for c, b in zip(n_cut, n_beams, strict=True)])
     # Linear power of the beams (each averaged with its neighbours), smoothed in range;
     # beam c's window starts at row lo[c], and p[i, c] belongs to row off[c] + i.
     # The window starts a little before the shadow (room for the target's echo level
@@ -286,90 +375,84 @@ def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: Measure
     hi = np.minimum(n_rows, np.maximum(bb, s_last + k_smooth + 2) + k_smooth)
     length = int((hi - lo).max())
     if length < k_smooth + 2:
-        return [_Edges([], _NONE, _NONE, bool(2 * c > b)) for c, b in zip(n_cut, n_beams, strict=True)]
-    rows = np.minimum(lo[None, :] + np.arange(length)[:, None], n_rows - 1)
+        return _no_edges([bool(2 * c > b) for c, b in zip(n_cut, n_beams, strict=True)])
+    m = beams.size
     b_half = cfg.smooth_beams // 2
-    shifts = np.minimum(np.maximum((beams[None, :] + np.arange(-b_half, b_half + 1)[:, None]).ravel(), 0), n_cols - 1)
-    index = (rows * n_cols)[:, None, :] + shifts.reshape(cfg.smooth_beams, beams.size)[None, :, :]
-    block = segmentation.power_take(index.reshape(length, -1))
-    power = block[:, : beams.size]
-    for j in range(1, cfg.smooth_beams):
-        power = power + block[:, j * beams.size : (j + 1) * beams.size]
+    shifts = _clamp(beams + np.arange(-b_half, b_half + 1)[:, None], 0, n_cols - 1)
+    # index[j, i, c]: row i of beam c's window in its j-th neighbour (one plane per
+    # neighbour); rows past the image repeat its last row.
+    index = (lo * n_cols + shifts)[:, None, :] + np.arange(0, length * n_cols, n_cols)[:, None]
+    if int(lo.max()) + length > n_rows:
+        index = np.minimum(index, (n_rows - 1) * n_cols + shifts[:, None, :])
+    block = segmentation.power_take(index.reshape(cfg.smooth_beams, length * m))
+    # The neighbours added one after another (a reduction over the first axis), then scaled.
+    power = np.add.reduce(block.reshape(cfg.smooth_beams, length, m), axis=0)
     power *= 1.0 / cfg.smooth_beams
     cum = _cumsum0(power)
     p = (cum[k_smooth:] - cum[:-k_smooth]) / k_smooth
+    n_p = p.shape[0]
     off = lo + half
     cum_p = _cumsum0(p)
-    idx = np.arange(p.shape[0])[:, None]
-    cols = np.arange(p.shape[1])
-    # Levels: shadow inside, seabed just after the shadow.
+    cols = np.arange(m)
+    # Levels: shadow inside, seabed just after the shadow (both in one pass).
     sa, sb = s_first + half, s_last + 1 - half
     short = sb <= sa
     sa = np.where(short, s_first, sa)
     sb = np.where(short, s_last + 1, sb)
-    shadow_level = _window_mean(cum_p, sa - off, sb - off)
-    seabed_level = _window_mean(cum_p, ba - off, bb - off)
+    bounds = (np.array((sa, ba, sb, bb)) - off).reshape(2, 2 * m)
+    levels = _window_mean(cum_p, bounds, np.concatenate((cols, cols)))
+    shadow_level, seabed_level = levels[:m], levels[m:]
     # Where the "seabed" after the shadow is hardly brighter than the shadow, the shadow
     # runs on into the dark beyond the band's far edge: cut there.
-    seabed_db = 10.0 * np.log10(seabed_level)
-    contrast_db = seabed_db - 10.0 * np.log10(shadow_level)
-    beyond = ~(contrast_db >= cfg.end_contrast_db)
+    levels_db = 10.0 * np.log10(levels)
+    beyond = ~(levels_db[m:] - levels_db[:m] >= cfg.end_contrast_db)
     # A shadow cut by the far edge is cut across its width: most of its beams.
-    n_cut = n_cut + np.bincount(owner[beyond], minlength=len(pairs))
+    n_cut = n_cut + np.bincount(owner[beyond], minlength=n_pairs)
     far_cut = [bool(2 * c > b) for c, b in zip(n_cut.tolist(), n_beams.tolist(), strict=True)]
     # The target's echo just before its far top edge (which may be weaker than the
     # highlight's brightest part, e.g. a top seen at grazing incidence): find the edge
     # roughly as the last sample above the dB-midpoint of shadow and seabed, then take
-    # the echo level a smoothing width before it.
+    # the echo level a smoothing width before it. Both searches end at the core of the
+    # shadow: only the rows before the farthest core are searched (backwards), and
+    # each beam's own core bounds the search only where the cores differ.
     core = np.minimum(s_first + k_smooth, s_last) - off
+    core_min, core_max = int(core.min()), int(core.max())
     rough_level = np.sqrt(shadow_level * seabed_level)
-    rough, has_rough = _last_true((p >= rough_level) & (idx <= core))
+    n_near = min(max(core_max + 1, 1), n_p)  # rows idx <= core
+    near = p[n_near - 1 :: -1] >= rough_level
+    if core_min < n_near - 1:
+        near &= np.arange(n_near - 1, -1, -1)[:, None] <= core
+    rough, has_rough = _last_true(near, n_near, cols)
     hb = rough - k_smooth
-    echo_level = _window_mean(cum_p, np.maximum(0, hb - cfg.level_samples), np.maximum(1, hb))
+    echo_bounds = np.array((np.maximum(0, hb - cfg.level_samples), np.maximum(1, hb)))
+    echo_level = _window_mean(cum_p, echo_bounds, cols)
     mid_top = 0.5 * (echo_level + shadow_level)
-    k_top, has_top = _last_true((p >= mid_top) & (idx < core))
-    k_next = np.minimum(k_top + 1, p.shape[0] - 1)
-    a_top, b_top = p[k_top, cols], p[k_next, cols]
+    n_top = min(max(core_max, 1), n_p)  # rows idx < core
+    above = p[n_top - 1 :: -1] >= mid_top
+    if core_min < n_top:
+        above &= np.arange(n_top - 1, -1, -1)[:, None] < core
+    k_top, has_top = _last_true(above, n_top, cols)
+    a_top, b_top = p[k_top, cols], p[np.minimum(k_top + 1, n_p - 1), cols]
     top = k_top + (a_top - mid_top) / (a_top - b_top)
-    has_top &= b_top < mid_top
+    # The shadow end: searched from the middle of the shadow to just past its last row,
+    # in the rows c0 .. c1 - 1 that hold every beam's search.
     mid_end = 0.5 * (shadow_level + seabed_level)
     start = np.maximum(np.maximum(s_first, (s_first + s_last) // 2) - off, 1)
     stop = s_last + k_smooth + 2 - off
-    k_end, has_end = _first_true((p >= mid_end) & (idx >= start) & (idx < stop))
+    c0 = min(int(start.min()), n_p - 1)
+    c1 = max(min(int(stop.max()), n_p), c0 + 1)
+    idx_far = np.arange(c0, c1)[:, None]
+    k_end, has_end = _first_true((p[c0:c1] >= mid_end) & (idx_far >= start) & (idx_far < stop), c0, cols)
+    # k_end >= c0 >= 1 (start >= 1 and n_p >= 3): row k_end - 1 is inside p.
     a_end, b_end = p[k_end - 1, cols], p[k_end, cols]
     end = (k_end - 1) + (mid_end - a_end) / (b_end - a_end)
-    has_end &= (k_end >= 1) & (a_end < mid_end)
-    good = (
-        (shadow_level < seabed_level) & has_rough & (echo_level > shadow_level)
-        & has_top & has_end & (end > top) & ~beyond
-    )
-    top = top + off
-    end = end + off
-    out = []
-    for n in range(len(pairs)):
-        mine = good & (owner == n)
-        out.append(_Edges(beams[mine].tolist(), top[mine], end[mine], far_cut[n]))
-    return out
-
-
-def _cumsum0(values: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Cumulative sums down the rows with a row of zeros first, shape (n + 1, m)."""
-    out = np.empty((values.shape[0] + 1, values.shape[1]))
-    out[0] = 0.0
-    np.cumsum(values, axis=0, out=out[1:])
-    return out
-
-
-def _last_true(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-    """Per column, the last row where ``mask`` holds, and whether any does."""
-    n = mask.shape[0]
-    last = (n - 1 - np.argmax(mask[::-1], axis=0)).astype(np.intp)
-    return last, np.asarray(mask.any(axis=0), dtype=bool)
-
-
-def _first_true(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-    """Per column, the first row where ``mask`` holds, and whether any does."""
-    return np.argmax(mask, axis=0).astype(np.intp), np.asarray(mask.any(axis=0), dtype=bool)
+    good = np.logical_and.reduce((
+        shadow_level < seabed_level, has_rough, echo_level > shadow_level,
+        has_top, b_top < mid_top, has_end, k_end >= 1, a_end < mid_end, end > top, ~beyond,
+    ))
+    kept = np.flatnonzero(good)
+    rows = (np.array((top, end)) + off)[:, kept]
+    return _Edges(beams[kept], rows, np.bincount(owner[kept], minlength=n_pairs).tolist(), far_cut)
 
 
 def measure_pair(
@@ -398,39 +481,40 @@ def measure_pair(
     -------
     ShadowMeasurement
     """
-    cfg = config or MeasureConfig()
-    return _measurement(
-        segmentation, pair, _edges(segmentation, [pair], cfg)[0],
-        range_m=range_m, beam_azimuth_rad=beam_azimuth_rad, config=cfg,
-    )
+    return measure_pairs(
+        segmentation, [pair], range_m=range_m, beam_azimuth_rad=beam_azimuth_rad, config=config
+    )[0]
 
 
 def _measurement(
     segmentation: Segmentation,
     pair: Pair,
-    edges: _Edges,
     *,
-    range_m: NDArray[np.float64],
+    columns: list[int],
+    top_m: list[float],
+    end_m: list[float],
+    azimuth_rad: NDArray[np.float64],
+    far_cut: bool,
+    dr: float,
     beam_azimuth_rad: NDArray[np.float64],
+    range_m: NDArray[np.float64],
     config: MeasureConfig,
 ) -> ShadowMeasurement:
-    """Combine one pair's per-beam edges into its measurement."""
+    """Combine one pair's per-beam edges (m, and the azimuths of those beams) into its measurement.
+
+    ``dr`` is the range step, m.
+    """
     cfg = config
     n_rows = segmentation.levels.shape[0]
     t, s = pair.highlight, pair.shadow
     # Whether the far edge of the band cuts the shadow is decided beam by beam from the
-    # seabed after it (``edges.far_cut``), not from the band's estimated edge.
+    # seabed after it (``far_cut``), not from the band's estimated edge.
     cutting = [f for f in pair.fov_flags if f in _CUTTING_FLAGS and f != "band_far"]
-    far_cut = edges.far_cut
-    used = edges.columns
-    tops = edges.tops
-    ends = edges.ends
     if far_cut and "band_far" not in cutting and "window_end" not in cutting:
         cutting.append("band_far" if s.row_stop < n_rows else "window_end")
-    dr = float(range_m[-1] - range_m[0]) / (range_m.size - 1)
     highlight_range = float(range_m[t.row_start])
     width = s.n_cols
-    if len(used) < cfg.min_beams:
+    if len(columns) < cfg.min_beams:
         reason = "; ".join(TRUNCATION_REASONS[f] for f in cutting) if cutting else (
             "no beam with both shadow edges found"
         )
@@ -441,21 +525,18 @@ def _measurement(
             r_end_per_beam_m=(), truncated=bool(cutting), reason=reason,
             overlap=pair.overlap, shadow_width_beams=width,
         )
-    n = len(used)
-    # Both edges in one interpolation, then plain Python on the few per-beam values.
-    both_m = np.interp(np.concatenate((tops, ends)), _rows_axis(n_rows), range_m).tolist()
-    top_m, end_m = both_m[:n], both_m[n:]
-    r_top = _median(top_m)
-    r_end = _median(end_m)
-    spread = max(_robust_std(top_m), _robust_std(end_m))
+    n = len(columns)
+    r_top, spread_top = _median_and_spread(top_m)
+    r_end, spread_end = _median_and_spread(end_m)
+    spread = max(spread_top, spread_end)
     sigma = max(1.2533 * spread / math.sqrt(n), 0.25 * dr / math.sqrt(n))
     return ShadowMeasurement(
-        azimuth_rad=_mean(beam_azimuth_rad[used]),
+        azimuth_rad=_mean(azimuth_rad),
         r_top_m=r_top,
         r_end_m=r_end,
         sigma_r_m=sigma,
         highlight_range_m=highlight_range,
-        columns=tuple(used),
+        columns=tuple(columns),
         r_top_per_beam_m=tuple(top_m),
         r_end_per_beam_m=tuple(end_m),
         truncated=bool(cutting),
@@ -478,12 +559,12 @@ def _mean(values: NDArray[np.float64]) -> float:
     return float(np.add.reduce(values) / values.size)
 
 
-def _robust_std(values: list[float]) -> float:
-    """1.4826 x median absolute deviation (0 for a single value)."""
-    if len(values) < 2:
-        return 0.0
+def _median_and_spread(values: list[float]) -> tuple[float, float]:
+    """Median of a short list, and 1.4826 x its median absolute deviation (0 for a single value)."""
     middle = _median(values)
-    return 1.4826 * _median([abs(v - middle) for v in values])
+    if len(values) < 2:
+        return middle, 0.0
+    return middle, 1.4826 * _median([abs(v - middle) for v in values])
 
 
 def _median(values: list[float]) -> float:
@@ -504,9 +585,21 @@ def measure_pairs(
     """:func:`measure_pair` for every pair of a frame, their beams processed together."""
     cfg = config or MeasureConfig()
     edges = _edges(segmentation, pairs, cfg)
-    return [
-        _measurement(
-            segmentation, pair, e, range_m=range_m, beam_azimuth_rad=beam_azimuth_rad, config=cfg
-        )
-        for pair, e in zip(pairs, edges, strict=True)
-    ]
+    n_all = edges.columns.size
+    # All pairs' edges to metres in one interpolation (starts, then ends), then plain
+    # Python per pair.
+    metres = np.interp(edges.rows.ravel(), _rows_axis(segmentation.levels.shape[0]), range_m).tolist()
+    azimuths = beam_azimuth_rad[edges.columns]
+    columns = edges.columns.tolist()
+    dr = float(range_m[-1] - range_m[0]) / (range_m.size - 1)
+    out = []
+    start = 0
+    for pair, count, far_cut in zip(pairs, edges.counts, edges.far_cut, strict=True):
+        stop = start + count
+        out.append(_measurement(
+            segmentation, pair, columns=columns[start:stop], top_m=metres[start:stop],
+            end_m=metres[n_all + start : n_all + stop], azimuth_rad=azimuths[start:stop], far_cut=far_cut,
+            dr=dr, beam_azimuth_rad=beam_azimuth_rad, range_m=range_m, config=cfg,
+        ))
+        start = stop
+    return out

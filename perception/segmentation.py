@@ -51,13 +51,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from perception.segmentation_band import (
     BAND_EDGE_STRIDE,
     BAND_EDGE_TOLERANCE_ROWS,
     column_band,
     insonified_rows,
+    longest_run,
     shadow_in_band,
 )
 from perception.segmentation_classical import classical_regions
@@ -65,11 +65,14 @@ from perception.segmentation_grid import (
     MAX_CONTOURS,
     ColumnRows,
     Extents,
+    LabelledMask,
     Region,
     clean_mask,
     components,
     grid_components,
+    label_mask,
     label_rows,
+    labelled_regions,
     with_core,
 )
 from perception.segmentation_levels import (
@@ -80,6 +83,8 @@ from perception.segmentation_levels import (
     grid_smooth,
     percentile90,
     row_background,
+    row_background_of,
+    running_min_max,
 )
 from perception.segmentation_result import LABEL_HIGHLIGHT, LABEL_OTHER, LABEL_SHADOW, Segmentation
 
@@ -105,9 +110,14 @@ __all__ = [
     "grid_components",
     "grid_smooth",
     "insonified_rows",
+    "label_mask",
+    "labelled_regions",
+    "longest_run",
     "mask_iou",
     "row_background",
+    "running_min_max",
     "segment",
+    "with_core",
 ]
 
 METHODS = ("speckle", "classical")
@@ -247,10 +257,11 @@ def segment(image: NDArray[np.generic], *, config: SegmentationConfig | None = N
     centres = np.minimum(np.arange(d // 2, n_rows + d // 2, d), n_rows - 1)
     grid = grid_smooth(levels, centres, samples=cfg.smooth_samples, beams=cfg.smooth_beams)
     block = max(1, cfg.background_block_samples // d)
-    background = row_background(grid, block_samples=block)
+    background = row_background_of(grid, block_samples=block, non_negative=levels.dtype == np.uint8)
     drop = cfg.band_drop_db / db_per_level
     seabed_floor = percentile90(background) - drop
-    band = insonified_rows(background, drop=drop)
+    # insonified_rows(background, drop=drop) without taking the percentile again.
+    band = longest_run(background >= seabed_floor)
     start_grid, stop_grid = column_band(
         grid, band, level=seabed_floor, stride=max(1, BAND_EDGE_STRIDE // d),
         tolerance_rows=BAND_EDGE_TOLERANCE_ROWS / d,
@@ -259,36 +270,35 @@ def segment(image: NDArray[np.generic], *, config: SegmentationConfig | None = N
         # Where the row level changes fast (the band's edges) a block straddles both
         # sides: shadows are tested against the lowest nearby level, highlights against
         # the highest, so neither edge of the band turns into shadow or highlight.
-        low = minimum_filter1d(background, 2 * block + 1, mode="nearest")
-        high = maximum_filter1d(background, 2 * block + 1, mode="nearest")
+        low, high = running_min_max(background, size=2 * block + 1)
         shadow_limit = low - np.float32(cfg.shadow_db / db_per_level)
         highlight_limit = np.maximum(high, np.float32(seabed_floor)) + np.float32(
             cfg.highlight_db / db_per_level
         )
-        # Both masks side by side (a blank column between): one labelling pass.
-        both = np.zeros((grid.shape[0], 2 * n_cols + 1), dtype=np.uint8)
+        # Both masks side by side (a blank column between): one labelling pass. Each mask
+        # is written whole below.
+        both = np.empty((grid.shape[0], 2 * n_cols + 1), dtype=np.uint8)
+        both[:, n_cols] = 0
         shadow_in_band(grid, shadow_limit, start_grid, stop_grid, out=both[:, :n_cols].view(bool))
         np.greater(grid, highlight_limit[:, None], out=both[:, n_cols + 1 :].view(bool))
         if cfg.open_size > 1 or cfg.close_size > 1:
             for part in (both[:, :n_cols], both[:, n_cols + 1 :]):
                 part[...] = clean_mask(np.ascontiguousarray(part), open_size=cfg.open_size, close_size=cfg.close_size)
-        labels, regions, (first, last) = grid_components(
-            both, kind="shadow", min_area_px=cfg.min_shadow_area_px, row_step=d, n_rows=n_rows,
-            second=("highlight", n_cols + 1, cfg.min_highlight_area_px),
-        )
-        shadow_labels, highlight_labels = labels[:, :n_cols], labels[:, n_cols + 1 :]
+        labelled = label_mask(both.view(bool))
         # A shadow holds only the noise floor, a target's echo stands well above the
         # seabed: dark and bright patches of a textured seabed have neither core.
         shadow_core = low - np.float32(cfg.shadow_core_db / db_per_level)
-        shadows = with_core(
-            tuple(r for r in regions if r.kind == "shadow"), shadow_labels, grid < shadow_core[:, None],
-            min_core_px=cfg.min_shadow_core_px, row_step=d,
-        )
         highlight_core = highlight_limit + np.float32((cfg.highlight_core_db - cfg.highlight_db) / db_per_level)
-        highlights = with_core(
-            tuple(r for r in regions if r.kind == "highlight"), highlight_labels,
-            grid > highlight_core[:, None], min_core_px=cfg.min_highlight_core_px, row_step=d,
+        core_px = _core_pixels(labelled, grid, shadow_core, highlight_core) * d
+        regions, (first, last) = labelled_regions(
+            labelled, kind="shadow", min_area_px=cfg.min_shadow_area_px, row_step=d, n_rows=n_rows,
+            second=("highlight", n_cols + 1, cfg.min_highlight_area_px),
+            core_px=core_px, min_core_px=(cfg.min_shadow_core_px, cfg.min_highlight_core_px),
         )
+        labels = labelled.labels
+        shadow_labels, highlight_labels = labels[:, :n_cols], labels[:, n_cols + 1 :]
+        shadows = tuple(r for r in regions if r.kind == "shadow")
+        highlights = tuple(r for r in regions if r.kind == "highlight")
         shadow_rows = (first[:, :n_cols], last[:, :n_cols])
         highlight_rows = (first[:, n_cols + 1 :], last[:, n_cols + 1 :])
         step = d
@@ -321,6 +331,26 @@ def segment(image: NDArray[np.generic], *, config: SegmentationConfig | None = N
         band_stop_rows=centres[stop_grid],
         method=cfg.method,
     )
+
+
+def _core_pixels(
+    labelled: LabelledMask,
+    grid: NDArray[np.float32],
+    shadow_core: NDArray[np.float32],
+    highlight_core: NDArray[np.float32],
+) -> NDArray[np.int64]:
+    """Per label of the side-by-side masks, its grid pixels in the core, shape (n_labels,).
+
+    Shadow pixels (left of the blank column) below their row's ``shadow_core``, highlight
+    pixels (right of it) above ``highlight_core``: the counts :func:`with_core` takes from
+    whole-grid core masks, tested at the labelled pixels only (a few percent of the grid).
+    """
+    n_cols = grid.shape[1]
+    rows, cols = labelled.rows, labelled.cols
+    is_shadow = cols < n_cols
+    value = grid.ravel().take(rows * n_cols + np.where(is_shadow, cols, cols - (n_cols + 1)))
+    core = np.where(is_shadow, value < shadow_core[rows], value > highlight_core[rows])
+    return np.bincount(labelled.pixel_labels[core], minlength=labelled.n_labels)
 
 
 def mask_iou(predicted: NDArray[np.bool_], truth: NDArray[np.bool_]) -> float:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -28,14 +29,18 @@ def insonified_rows(background: NDArray[np.float32], *, drop: float) -> NDArray[
     form the longest contiguous run (the insonified band), so isolated bright rows in
     the dark are not taken for seabed.
     """
-    reference = percentile90(background)
-    above = background >= reference - drop
-    padded = np.concatenate(([0], above.astype(np.int8), [0]))
-    edges = np.flatnonzero(np.diff(padded))
-    starts, stops = edges[0::2], edges[1::2]
-    out = np.zeros(background.shape, dtype=bool)
-    if starts.size == 0:
+    return longest_run(background >= percentile90(background) - drop)
+
+
+def longest_run(above: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """The longest run of True in ``above`` (the first of equal ones), shape of ``above``."""
+    padded = np.zeros(above.size + 2, dtype=bool)
+    padded[1:-1] = above
+    edges = np.flatnonzero(padded[1:] != padded[:-1])
+    out = np.zeros(above.shape, dtype=bool)
+    if edges.size == 0:
         return out
+    starts, stops = edges[0::2], edges[1::2]
     best = int(np.argmax(stops - starts))
     out[starts[best] : stops[best]] = True
     return out
@@ -48,27 +53,53 @@ def _robust_edge(
 
     A shadow at the band's near edge moves that beam's first seabed row later; at the
     far edge it moves the last seabed row earlier. Those beams (more than ``tolerance``
-    rows off the fit) are dropped and the parabola refitted (two passes).
+    rows off the fit) are dropped and the parabola refitted (two passes). With fewer
+    than 3 usable beams (or a singular fit) the rows are returned as they are.
     """
     powers = _beam_powers(values.size)
     x = powers[1]
     target = values.astype(np.float64)
-    use = valid.copy()
+    use = valid
+    n_use = int(np.count_nonzero(use))
     fitted = target
-    for _ in range(2):
-        if np.count_nonzero(use) < 3:
+    for refit in (False, True):
+        coeffs = _fit_parabola(powers, target, use, n_use)
+        if coeffs is None:
             return values
+        # c0 + c1 x + c2 x x, in place (the same operations: + and * commute exactly).
+        fitted = x * coeffs[1]
+        fitted += coeffs[0]
+        square = x * coeffs[2]
+        square *= x
+        fitted += square
+        if refit:
+            break
+        residual = target - fitted
+        kept = valid & ((residual <= tolerance) if later_is_outlier else (residual >= -tolerance))
+        n_kept = np.count_nonzero(kept)
+        if n_kept == n_use:
+            # No beam dropped (``kept`` is a subset of ``use``): the refit would be this fit.
+            break
+        use, n_use = kept, int(n_kept)
+    return np.rint(fitted).astype(np.intp)
+
+
+def _fit_parabola(
+    powers: NDArray[np.float64], target: NDArray[np.float64], use: NDArray[np.bool_], n_use: int
+) -> tuple[float, float, float] | None:
+    """Least-squares parabola through ``target`` at the ``use`` beams (None: under 3 beams or singular)."""
+    if n_use < 3:
+        return None
+    if n_use == target.size:
+        # Every beam: the same sums over the whole arrays (no copies; the power sums kept).
+        s0, s1, s2, s3, s4 = _power_sums(target.size)
+        t0, t1, t2 = (powers[:3] @ target).tolist()
+    else:
         # ``compress`` picks the used beams faster than boolean indexing (same arrays).
         picked = powers.compress(use, axis=1)
         s0, s1, s2, s3, s4 = np.add.reduce(picked, axis=1).tolist()
         t0, t1, t2 = (picked[:3] @ target.compress(use)).tolist()
-        coeffs = _solve3(((s0, s1, s2), (s1, s2, s3), (s2, s3, s4)), (t0, t1, t2))
-        if coeffs is None:
-            return values
-        fitted = coeffs[0] + coeffs[1] * x + coeffs[2] * x * x
-        residual = target - fitted
-        use = valid & ((residual <= tolerance) if later_is_outlier else (residual >= -tolerance))
-    return np.rint(fitted).astype(np.intp)
+    return _solve3(((s0, s1, s2), (s1, s2, s3), (s2, s3, s4)), (t0, t1, t2))
 
 
 @functools.lru_cache(maxsize=8)
@@ -78,6 +109,13 @@ def _beam_powers(n: int) -> NDArray[np.float64]:
     out = np.stack([np.ones_like(x), x, x * x, x**3, x**4])
     out.flags.writeable = False
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def _power_sums(n: int) -> tuple[float, float, float, float, float]:
+    """Sums over all n beams of x^0 .. x^4 (:func:`_beam_powers`)."""
+    s0, s1, s2, s3, s4 = np.add.reduce(_beam_powers(n), axis=1).tolist()
+    return s0, s1, s2, s3, s4
 
 
 def _solve3(
@@ -114,15 +152,23 @@ def column_band(
     if band.size == 0:
         return np.ones(n_cols, dtype=np.intp), np.zeros(n_cols, dtype=np.intp)
     r0, r1 = int(band[0]), int(band[-1]) + 1
-    inside = smoothed[r0:r1:stride] >= level
-    any_row = np.asarray(inside.any(axis=0), dtype=bool)
-    start = r0 + stride * np.argmax(inside, axis=0)
-    stop = r0 + stride * (inside.shape[0] - 1 - np.argmax(inside[::-1], axis=0))
+    inside = (smoothed[r0:r1:stride] >= level).view(np.uint8)
+    # Each beam's first and last seabed row by argmax along contiguous memory: OpenCV
+    # turns the rows into columns (transposed; rotated clockwise = transposed with the
+    # rows reversed) far faster than numpy's argmax copies along the first axis.
+    by_beam = np.asarray(cv2.transpose(inside)).view(bool)
+    by_beam_reversed = np.asarray(cv2.rotate(inside, cv2.ROTATE_90_CLOCKWISE)).view(bool)
+    first = by_beam.argmax(axis=1)
+    # A beam with a seabed row: its first one is past row 0, or row 0 is one.
+    any_row = (first > 0) | by_beam[:, 0]
+    start = r0 + stride * first
+    stop = r0 + stride * (inside.shape[0] - 1 - by_beam_reversed.argmax(axis=1))
+    # (np.clip costs several times more than the two calls.)
     start = np.minimum(np.maximum(
         _robust_edge(start, any_row, later_is_outlier=True, tolerance=tolerance_rows), r0), r1 - 1)
     stop = np.minimum(np.maximum(
         _robust_edge(stop, any_row, later_is_outlier=False, tolerance=tolerance_rows), r0), r1 - 1)
-    return start.astype(np.intp), stop.astype(np.intp)
+    return start, stop
 
 
 def shadow_in_band(
@@ -140,10 +186,12 @@ def shadow_in_band(
     """
     n_rows = smoothed.shape[0]
     lo, hi = int(start.min()), int(stop.max()) + 1
-    limit = below.copy()
-    limit[: max(lo, 0)] = -np.inf
-    limit[max(hi, 0) :] = -np.inf
-    shadow = np.less(smoothed, limit[:, None], out=out)
+    # Only the rows from the first band row to the last are compared; the others are not shadow.
+    shadow = np.empty(smoothed.shape, dtype=bool) if out is None else out
+    first, stop_row = max(lo, 0), max(hi, lo, 0)
+    shadow[:first] = False
+    shadow[stop_row:] = False
+    np.less(smoothed[first:stop_row], below[first:stop_row, None], out=shadow[first:stop_row])
     near_end = min(int(start.max()), n_rows)
     if near_end > lo:
         rows = np.arange(lo, near_end)[:, None]

@@ -137,6 +137,16 @@ def row_background(
     -------
     ndarray, shape (n_samples,), float32
     """
+    return row_background_of(smoothed, block_samples=block_samples, non_negative=None)
+
+
+def row_background_of(
+    smoothed: NDArray[np.float32], *, block_samples: int, non_negative: bool | None
+) -> NDArray[np.float32]:
+    """:func:`row_background`, told whether ``smoothed`` is known to be >= 0 (None: find out).
+
+    Box means of uint8 levels are never negative, which saves a pass over them.
+    """
     n_rows, n_cols = smoothed.shape
     block = max(1, min(block_samples, n_rows))
     n_blocks = n_rows // block
@@ -150,17 +160,66 @@ def row_background(
     # The upper quartile, not the median: a row can be more than half shadow when large
     # targets stand in it, but highlights are never a quarter of a row.
     k = (3 * small.shape[1]) // 4
-    if small.dtype == np.float32 and small.min() >= 0:
-        # Non-negative float32 values order as their int32 bit patterns, which numpy
-        # partitions markedly faster; the element picked is the same.
-        level = np.partition(small.view(np.int32), k, axis=1)[:, k].view(np.float32).copy()
+    # Non-negative float32 values order as their int32 bit patterns, which numpy sorts
+    # (SIMD) markedly faster than it partitions or sorts floats; the elements are the same.
+    as_int = small.dtype == np.float32 and (bool(small.min() >= 0) if non_negative is None else non_negative)
+    if as_int:
+        level = np.sort(small.view(np.int32), axis=1)[:, k].view(np.float32)
     else:
         level = np.partition(small, k, axis=1)[:, k].astype(np.float32)
     # Bright targets filling a quarter of a row raise its quartile; a wide running
     # median over blocks (which keeps the band's edges sharp) caps such rises.
-    wide = np.asarray(median_filter(level, size=BACKGROUND_MEDIAN_BLOCKS, mode="nearest"))
+    wide = _running_median_int(level) if as_int else median_filter(level, size=BACKGROUND_MEDIAN_BLOCKS, mode="nearest")
     level = np.minimum(level, wide)
     if block == 1:
         return level
     centres = (np.arange(n_blocks) + 0.5) * block - 0.5
     return np.interp(np.arange(n_rows), centres, level).astype(np.float32)
+
+
+def _running_median_int(level: NDArray[np.float32]) -> NDArray[np.float32]:
+    """``median_filter(level, size=BACKGROUND_MEDIAN_BLOCKS, mode="nearest")`` of non-negative float32.
+
+    The windows (edges replicated) as a strided view, sorted by their int32 bit patterns
+    (the same order for non-negative floats): the same medians as scipy's, at a fraction
+    of its call overhead.
+    """
+    half = BACKGROUND_MEDIAN_BLOCKS // 2
+    padded = np.concatenate((np.full(half, level[0]), level, np.full(half, level[-1]))).view(np.int32)
+    step = padded.strides[0]
+    # Window i starts at element i (a read-only view, no copy).
+    windows = np.lib.stride_tricks.as_strided(
+        padded, shape=(level.size, BACKGROUND_MEDIAN_BLOCKS), strides=(step, step), writeable=False
+    )
+    return np.sort(windows, axis=1)[:, half].view(np.float32)
+
+
+@functools.lru_cache(maxsize=8)
+def _row_kernel(size: int) -> NDArray[np.uint8]:
+    """A 1 x ``size`` structuring element (read-only)."""
+    kernel = np.ones((1, size), dtype=np.uint8)
+    kernel.flags.writeable = False
+    return kernel
+
+
+def running_min_max(
+    values: NDArray[np.float32], *, size: int
+) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """Running minimum and maximum over ``size`` (odd) neighbours, edges replicated.
+
+    The same as scipy's ``minimum_filter1d`` and ``maximum_filter1d`` with
+    ``mode="nearest"``, by OpenCV's erosion and dilation (far less call overhead).
+
+    Parameters
+    ----------
+    values : ndarray, shape (n,), float32
+
+    Returns
+    -------
+    low, high : ndarray, shape (n,), float32
+    """
+    row = np.ascontiguousarray(values, dtype=np.float32).reshape(1, -1)
+    kernel = _row_kernel(size)
+    low = cv2.erode(row, kernel, borderType=cv2.BORDER_REPLICATE)
+    high = cv2.dilate(row, kernel, borderType=cv2.BORDER_REPLICATE)
+    return low[0], high[0]

@@ -18,6 +18,22 @@ from numpy.typing import NDArray
 from perception.segmentation_grid import ColumnRows, Extents, Region
 from perception.segmentation_levels import Levels, box_smooth, power_table
 
+
+@functools.lru_cache(maxsize=16)
+def _window_weights(length: int, samples: int, beams: int) -> NDArray[np.float64]:
+    """0/1 weights summing ``samples`` rows x ``beams`` beams per output row (read-only).
+
+    Shape (length, (length + samples - 1) * beams): column ``r * beams + b`` is row ``r``
+    of a window, beam ``b`` of the box; output row ``i`` sums rows ``i .. i + samples - 1``.
+    """
+    span = length + samples - 1
+    rows = np.arange(span)
+    inside = (rows[None, :] >= np.arange(length)[:, None]) & (rows[None, :] < np.arange(length)[:, None] + samples)
+    weights = np.repeat(inside.astype(np.float64), beams, axis=1)
+    weights.flags.writeable = False
+    return weights
+
+
 #: Label codes of :meth:`Segmentation.label_image` (kept equal to the simulator's where they overlap).
 LABEL_OTHER = 0
 LABEL_HIGHLIGHT = 1
@@ -175,6 +191,13 @@ class Segmentation:
         cols = np.minimum(np.maximum(beams[None, :] + np.arange(-h_b, h_b + 1)[:, None], 0), n_cols - 1)
         index = (rows * n_cols)[:, None, :] + cols[None, :, :]
         taken = self.levels.ravel().take(index)
+        if taken.dtype == np.uint8:
+            # Every window's sum of the box's levels in one product with a 0/1 matrix:
+            # sums of small integers are exact in float64 whatever their order, so the
+            # means are those of the running sums below.
+            weights = _window_weights(length, self.smooth_samples, self.smooth_beams)
+            flat = taken.reshape(weights.shape[1], beams.size).astype(np.float64)
+            return (weights @ flat) / (self.smooth_samples * self.smooth_beams)
         # The beams added one by one (cheaper than a reduction over the middle axis).
         block = taken[:, 0].astype(np.float64)
         for k in range(1, taken.shape[1]):

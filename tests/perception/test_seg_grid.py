@@ -2,21 +2,31 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy.ndimage import maximum_filter1d, median_filter, minimum_filter1d
 
 from perception.heights import detect_shadows
 from perception.measure import measure_pairs
 from perception.pairing import pair_regions
 from perception.segmentation import (
+    BACKGROUND_MEDIAN_BLOCKS,
+    Region,
     SegmentationConfig,
     box_smooth,
     grid_components,
     grid_smooth,
+    label_mask,
+    labelled_regions,
     mask_iou,
+    row_background,
+    running_min_max,
     segment,
+    with_core,
 )
 from tests.perception.shadow_synth import (
     LABEL_HIGHLIGHT,
@@ -86,6 +96,87 @@ def test_smoothed_windows_are_slices_of_the_smoothed_image(start: int, length: i
     rows = np.arange(start, start + length)
     np.testing.assert_allclose(window[:, 0], seg.smoothed[rows, beam], atol=1e-3)
     np.testing.assert_allclose(window[:, 1], seg.smoothed[rows, max(beam - 1, 0)], atol=1e-3)
+
+
+def test_smoothed_windows_of_uint8_levels_are_exact_box_means() -> None:
+    # The uint8 path sums the boxes by a matrix product: the means are exactly the integer
+    # box sums over samples x beams (edge rows and beams repeated), divided in float64.
+    frame, _, _ = render(SynthConfig(boxes=THREE_BOXES), rng=np.random.default_rng(4))
+    seg = segment(frame.image)
+    levels = seg.levels.astype(np.int64)
+    n_rows, n_cols = levels.shape
+    starts, beams, length = np.array([-3, 0, 500, n_rows - 5]), np.array([0, 5, n_cols - 1, 64]), 9
+    window = seg.smoothed_windows(starts, length, beams)
+    for j, (start, beam) in enumerate(zip(starts.tolist(), beams.tolist(), strict=True)):
+        for i in range(length):
+            rows = np.clip(np.arange(start + i - 2, start + i + 3), 0, n_rows - 1)
+            cols = np.clip(np.arange(beam - 1, beam + 2), 0, n_cols - 1)
+            assert window[i, j] == levels[np.ix_(rows, cols)].sum() / 15
+
+
+@given(n=st.integers(1, 300), size=st.sampled_from([1, 3, 5, 17]), seed=st.integers(0, 2**16))
+@settings(max_examples=40, deadline=None, derandomize=True)
+def test_running_min_max_is_scipys(n: int, size: int, seed: int) -> None:
+    values = np.random.default_rng(seed).normal(0.0, 10.0, n).astype(np.float32)
+    low, high = running_min_max(values, size=size)
+    assert np.array_equal(low, minimum_filter1d(values, size, mode="nearest"))
+    assert np.array_equal(high, maximum_filter1d(values, size, mode="nearest"))
+
+
+@given(
+    n_rows=st.integers(1, 300), n_cols=st.integers(1, 40), block=st.sampled_from([1, 2, 8]),
+    negative=st.booleans(), seed=st.integers(0, 2**16),
+)
+@settings(max_examples=40, deadline=None, derandomize=True)
+def test_row_background_is_the_capped_upper_quartile(
+    n_rows: int, n_cols: int, block: int, negative: bool, seed: int
+) -> None:
+    # The reference: per-row partition and scipy's running median (what the fast paths replace).
+    gen = np.random.default_rng(seed)
+    smoothed = (gen.integers(0, 60, (n_rows, n_cols)) * np.float32(0.3) - (10 if negative else 0)).astype(np.float32)
+    block = min(block, n_rows)
+    level_rows = smoothed[: (n_rows // block) * block].reshape(-1, block, n_cols)
+    small = level_rows[:, 0].copy()
+    for k in range(1, block):
+        small += level_rows[:, k]
+    if block > 1:
+        small *= np.float32(1.0 / block)
+    k = (3 * n_cols) // 4
+    level = np.partition(small, k, axis=1)[:, k]
+    expected = np.minimum(level, median_filter(level, size=BACKGROUND_MEDIAN_BLOCKS, mode="nearest"))
+    found = row_background(smoothed, block_samples=block)
+    if block == 1:
+        assert np.array_equal(found, expected)
+    else:
+        centres = (np.arange(level.size) + 0.5) * block - 0.5
+        assert np.array_equal(found, np.interp(np.arange(n_rows), centres, expected).astype(np.float32))
+
+
+def test_labelled_regions_with_core_are_with_core() -> None:
+    # Filtering by core counts while the regions are built keeps what with_core keeps, and
+    # every region is a whole Region (all fields, equal to one built by its constructor).
+    gen = np.random.default_rng(9)
+    mask = (gen.random((60, 41)) < 0.3).astype(np.uint8)
+    mask[:, 20] = 0
+    core = gen.random(mask.shape) < 0.5
+    labelled = label_mask(mask.view(bool))
+    core_px = np.bincount(labelled.labels[core], minlength=labelled.n_labels) * 4
+    second = ("highlight", 21, 8)
+    labels, regions, rows = grid_components(mask, kind="shadow", min_area_px=12, row_step=4, n_rows=235, second=second)
+    kept, kept_rows = labelled_regions(
+        labelled, kind="shadow", min_area_px=12, row_step=4, n_rows=235, second=second,
+        core_px=core_px, min_core_px=(16, 8),
+    )
+    expected = [
+        *with_core(tuple(r for r in regions if r.kind == "shadow"), labels, core, min_core_px=16, row_step=4),
+        *with_core(tuple(r for r in regions if r.kind == "highlight"), labels, core, min_core_px=8, row_step=4),
+    ]
+    assert 0 < len(kept) < len(regions)
+    assert sorted(kept, key=lambda r: r.label) == sorted(expected, key=lambda r: r.label)
+    assert all(np.array_equal(a, b) for a, b in zip(kept_rows, rows, strict=True))
+    for region in regions:
+        assert region == Region(**{f.name: getattr(region, f.name) for f in dataclasses.fields(Region)})
+        assert set(vars(region)) == {f.name for f in dataclasses.fields(Region)}
 
 
 def test_grid_components_known_answer() -> None:
