@@ -38,11 +38,14 @@ The problem's structure is built once (a casadi ``conic``, default plugin daqp);
 step re-solves it with new bounds, linear terms and slack weights.
 
 Targets that no tilt can serve (behind, outside the fan, outside the range window,
-nearer than the tracking zone, a shadow spanning more than the aperture, beyond the
-mount limits) are dropped with a reason instead of dragging the beam. The window and
-zone checks are widened by a lead (serve a little early and late, against prediction
-errors); a target only within the lead band has its slack weighed far less, so it never
-pulls the beam off a target properly within range.
+nearer than 2 altitudes, a shadow spanning more than the aperture, beyond the mount
+limits) are dropped with a reason instead of dragging the beam. The window and zone
+checks are widened by a lead (serve a little early and late, against prediction errors);
+a target only within the lead band has its slack weighed far less, so it never pulls the
+beam off a target properly within range. The *tracking zone* (one tilt holds every
+shadow in it) is served in full; the *near band* between 2 altitudes and the zone's start
+is served with a lower weight and yields in any conflict with the zone, so the beam
+follows a target in as far as it costs no shadow in the zone.
 
 Everything here is pure: no sockets, clocks, threads or files; the caller times solves.
 :func:`simulate_pass` is a small closed-loop kinematic simulation used by the tests and
@@ -219,6 +222,16 @@ class PitchLoopConfig:
         from there to the window's end (:func:`tracking_zone_start_m`), so targets in
         the zone never conflict. False: ``min_ground_range_over_altitude`` altitudes
         only, the plain zone (for comparison; there, targets in range can conflict).
+    near_weight_factor : float
+        The *near band*, between ``min_ground_range_over_altitude`` altitudes and the
+        fitted zone's start (only with ``zone_fits_aperture``): targets there are served
+        too, with their slack weighed this many times less (at least
+        ``lead_weight_factor``), and where no tilt shows them together with the
+        farther targets (in the zone or its lead band) they yield (``lead_weight_factor
+        * near_weight_factor``, below any farther target). So the loop keeps
+        following a target in toward 2 altitudes whenever that costs no shadow in the
+        zone: what a fixed tilt cannot do. 0 turns the band off (such targets are
+        dropped as ``"too_close"``).
     height_prior_m, height_min_m : float
         Heights assumed for targets without an estimate, m: the tall prior for the
         aperture constraints (it puts the shadow end farther: safe), the short one for
@@ -264,6 +277,7 @@ class PitchLoopConfig:
     lead_weight_factor: float = 0.02
     min_ground_range_over_altitude: float = 2.0
     zone_fits_aperture: bool = True
+    near_weight_factor: float = 0.25
     height_prior_m: float = 0.4
     height_min_m: float = 0.02
     pitch_accel_max_rad_s2: float = math.radians(12.0)
@@ -303,6 +317,8 @@ class PitchLoopConfig:
         _finite(self.min_ground_range_over_altitude, "min_ground_range_over_altitude", lo=0.0)
         if not isinstance(self.zone_fits_aperture, bool):
             raise ConfigError(f"must be True or False, got {self.zone_fits_aperture!r}", key="zone_fits_aperture")
+        if not _finite(self.near_weight_factor, "near_weight_factor", lo=0.0) <= 1.0:
+            raise ConfigError(f"must be in [0, 1], got {self.near_weight_factor!r}", key="near_weight_factor")
         _finite(self.height_prior_m, "height_prior_m", lo=0.0)
         if not 0.0 <= _finite(self.height_min_m, "height_min_m", lo=0.0) <= self.height_prior_m:
             raise ConfigError(f"must be <= height_prior_m, got {self.height_min_m!r}", key="height_min_m")
@@ -349,6 +365,18 @@ class PitchLoopConfig:
                                      margin_rad=self.zone_margin_rad,
                                      min_over_altitude=self.min_ground_range_over_altitude,
                                      height_m=self.height_prior_m, fit_aperture=self.zone_fits_aperture)
+
+    def near_start_m(self, altitude_m: ArrayLike) -> FloatArray:
+        """Start of the near band (``near_weight_factor``) at ``altitude_m`` (m, any shape):
+        ``min_ground_range_over_altitude`` altitudes, or the zone's start where the band
+        is off, m."""
+        if self.near_weight_factor <= 0.0 or not self.zone_fits_aperture:
+            return self.zone_start_m(altitude_m)
+        return tracking_zone_start_m(altitude_m, window_end_m=float(self.window_m[1]),
+                                     elevation_aperture_rad=self.elevation_aperture_rad,
+                                     margin_rad=self.zone_margin_rad,
+                                     min_over_altitude=self.min_ground_range_over_altitude,
+                                     height_m=self.height_prior_m, fit_aperture=False)
 
 
 @dataclass(frozen=True)
@@ -798,10 +826,11 @@ def predict_horizon(state: PitchState, shadows: Sequence[TrackedShadow], config:
 
 def _serviceability(pred: HorizonPrediction, config: PitchLoopConfig, limits: MountLimits,
                     envelope_rad: float) -> tuple[FloatArray, FloatArray, NDArray[np.object_], NDArray[np.bool_],
-                                                  FloatArray]:
+                                                  FloatArray, NDArray[np.bool_]]:
     """Tilt bounds ``(L, U)`` per (target, step), the reason each is not served ('' if
-    served), whether it is within the window and zone proper (not only the lead band), and
-    ``L`` for the shadow alone (without the target's footprint).
+    served), whether it is within the window and zone proper (not only the lead band), ``L``
+    for the shadow alone (without the target's footprint), and whether it is within the
+    window and the near band (``PitchLoopConfig.near_weight_factor``).
 
     ``L > U`` where the margins and the envelope leave no room but the bare aperture
     does: such a target is still served and the QP centres it. It is dropped only when
@@ -818,12 +847,13 @@ def _serviceability(pred: HorizonPrediction, config: PitchLoopConfig, limits: Mo
     lo0, hi0 = depression_interval_rad(gr, half_aperture_rad=config.elevation_aperture_rad / 2)
     w0, w1 = config.window_m
     zone_start = config.zone_start_m(pred.altitude_m)
+    near_start = config.near_start_m(pred.altitude_m)
     reason = np.full(lo.shape, "", dtype=object)
     checks = [
         (hi0 < lo0, EXTENT_EXCEEDS_APERTURE),
         ((lo0 + pred.pitch_rad > limits.max_tilt_rad) | (hi0 + pred.pitch_rad < limits.min_tilt_rad),
          BEYOND_MOUNT_LIMITS),
-        (g.top_along_m < zone_start - lead, TOO_CLOSE),
+        (g.top_along_m < near_start - lead, TOO_CLOSE),
         (g.near_slant_m < w0 - lead, BEFORE_WINDOW_START),
         (gr.end_slant_m > w1 + lead, BEYOND_WINDOW_END),
         (np.abs(g.bearing_rad) > config.fan_width_rad / 2, OUTSIDE_FAN),
@@ -831,9 +861,10 @@ def _serviceability(pred: HorizonPrediction, config: PitchLoopConfig, limits: Mo
     ]
     for bad, why in checks:  # the last one that applies wins: the most basic reason
         reason[bad] = why
-    core = ((g.top_along_m >= zone_start)
-            & (g.near_slant_m >= w0) & (g.end_slant_m <= w1))
-    return low_t, up_t, reason, core, low_shadow
+    window = (g.near_slant_m >= w0) & (g.end_slant_m <= w1)
+    core = (g.top_along_m >= zone_start) & window
+    near = (g.top_along_m >= near_start) & (g.top_along_m < zone_start) & window
+    return low_t, up_t, reason, core, low_shadow, near
 
 
 # --------------------------------------------------------------------------- the loop
@@ -1023,14 +1054,16 @@ def _select(state: PitchState, shadows: Sequence[TrackedShadow], cfg: PitchLoopC
             envelope_rad: float) -> tuple[list[tuple[int, bool]], list[DroppedShadow], FloatArray, FloatArray,
                                           FloatArray, HorizonPrediction]:
     """Targets to serve (index, served at step 1), those dropped, tilt bounds, slack weight
-    factors (1 within range proper, ``lead_weight_factor`` in the lead band), prediction."""
+    factors (1 within range proper, ``near_weight_factor`` in the near band,
+    ``lead_weight_factor`` in the lead band), prediction."""
     pred = predict_horizon(state, shadows, cfg)
     if not shadows:
         empty = np.zeros((0, cfg.horizon_steps + 1))
         return [], [], empty, empty, empty, pred
-    low, up, reason, core, low_shadow = _serviceability(pred, cfg, lim, envelope_rad)
+    low, up, reason, core, low_shadow, near = _serviceability(pred, cfg, lim, envelope_rad)
     ok = reason == ""
     core = core & ok
+    near = near & ok
     low = np.where(ok, low, np.nan)
     low_shadow = np.where(ok, low_shadow, np.nan)
     up = np.where(ok, up, np.nan)
@@ -1039,7 +1072,9 @@ def _select(state: PitchState, shadows: Sequence[TrackedShadow], cfg: PitchLoopC
     # where the target is served: it may enter or leave during the step).
     ok[:, 1:] = ok[:, 1:] | ok[:, :-1]
     core[:, 1:] = core[:, 1:] | core[:, :-1]
-    factor = np.where(core, 1.0, cfg.lead_weight_factor)
+    near[:, 1:] = (near[:, 1:] | near[:, :-1]) & ~core[:, 1:]
+    near_factor = max(cfg.near_weight_factor, cfg.lead_weight_factor)
+    factor = np.where(core, 1.0, np.where(near, near_factor, cfg.lead_weight_factor))
     w = min(max(cfg.hold_start_s / cfg.dt_s, 0.0), 1.0)
     low[:, 1:] = np.fmax(low[:, 1:], _held_from(low, w))
     low_shadow[:, 1:] = np.fmax(low_shadow[:, 1:], _held_from(low_shadow, w))
@@ -1055,7 +1090,11 @@ def _select(state: PitchState, shadows: Sequence[TrackedShadow], cfg: PitchLoopC
     served = [(i, bool(ok[i, 1])) for _, i in candidates[: cfg.max_targets]]
     dropped += [DroppedShadow(shadows[i].target_id, TOO_MANY_TARGETS) for _, i in candidates[cfg.max_targets:]]
     firm = np.array([s.measured or s.height_m is not None for s in shadows])
-    _yield_in_conflicts(pred, [i for i, _ in served], core & ok, factor, cfg, firm)
+    sides = None
+    if cfg.near_weight_factor > 0.0 and cfg.zone_fits_aperture:
+        nearer = ok & (pred.geometry.top_along_m < cfg.zone_start_m(pred.altitude_m))
+        sides = (ok & ~nearer, nearer)
+    _yield_in_conflicts(pred, [i for i, _ in served], core & ok, factor, cfg, firm, sides)
     _footprints_yield(low, low_shadow, up, factor, [i for i, _ in served])
     return served, dropped, low, up, factor, pred
 
@@ -1085,7 +1124,8 @@ def _held_from(bound: FloatArray, fraction: float) -> FloatArray:
 
 
 def _yield_in_conflicts(pred: HorizonPrediction, idx: list[int], core: NDArray[np.bool_], factor: FloatArray,
-                        cfg: PitchLoopConfig, firm: NDArray[np.bool_]) -> None:
+                        cfg: PitchLoopConfig, firm: NDArray[np.bool_],
+                        sides: tuple[NDArray[np.bool_], NDArray[np.bool_]] | None = None) -> None:
     """Where no tilt shows several targets in range whole at once, the nearer ones yield.
 
     Per step, the targets within range proper are taken from the farthest to the nearest;
@@ -1098,6 +1138,14 @@ def _yield_in_conflicts(pred: HorizonPrediction, idx: list[int], core: NDArray[n
     frames plus the slew back to it). Targets seen in this frame or with a height come
     before those known only from memory with no height (``firm``, shape ``(n_targets,)``):
     a guess with the tall height prior never displaces a shadow actually seen.
+
+    With the near band on, ``sides = (farther, nearer)`` (served targets at or beyond the
+    zone's start, and nearer than it; each ``(n_targets, N + 1)``): a second pass takes
+    every farther target (in range proper or only in the lead band: its shadow may well
+    be in range while the tall prior says otherwise) before the nearer ones, and a nearer
+    one that misses them (here with the loop's margin, ``zone_margin_rad``, at both
+    aperture edges) gets ``lead_weight_factor * near_weight_factor``, below any farther
+    target's weight: the near band never takes the beam, or its margin, from the zone.
     """
     if len(idx) < 2:
         return
@@ -1106,24 +1154,43 @@ def _yield_in_conflicts(pred: HorizonPrediction, idx: list[int], core: NDArray[n
     lo = lo + pred.pitch_rad
     hi = hi + pred.pitch_rad
     w = min(max(cfg.hold_start_s / cfg.dt_s, 0.0), 1.0)
-    lo_start, hi_start = _held_from(lo, w), _held_from(hi, w)
+    bare = ((_held_from(lo, w), _held_from(hi, w), -1), (lo, hi, 0))
     along = pred.geometry.top_along_m
-    for k in range(1, lo.shape[1]):
-        order = sorted((i for i in idx if core[i, k]), key=lambda i: (not firm[i], -float(along[i, k])))
+
+    def misfits(order: list[int], k: int, ends: tuple = bare) -> set[int]:
+        """Targets of ``order`` (taken in turn) that miss the common interval of those
+        before them at both ends of step ``k``: a conflict only when there is one at both."""
         yielding: set[int] | None = None
-        for lo_j, hi_j in ((lo_start[:, k - 1], hi_start[:, k - 1]), (lo[:, k], hi[:, k])):
-            # a conflict only when there is one at both ends of the step
+        for lo_j, hi_j, shift in ends:
             common_lo, common_hi = -math.inf, math.inf
             here: set[int] = set()
             for i in order:
-                new_lo, new_hi = max(common_lo, float(lo_j[i])), min(common_hi, float(hi_j[i]))
+                new_lo, new_hi = max(common_lo, float(lo_j[i, k + shift])), min(common_hi, float(hi_j[i, k + shift]))
                 if new_lo <= new_hi:
                     common_lo, common_hi = new_lo, new_hi
                 else:
                     here.add(i)
             yielding = here if yielding is None else yielding & here
-        for i in yielding or ():
+        return yielding or set()
+
+    near_yield = cfg.lead_weight_factor * cfg.near_weight_factor
+    if sides is not None:  # the near band must not cost a farther target even its margin
+        lo_m, hi_m = depression_interval_rad(pred.geometry, half_aperture_rad=cfg.elevation_aperture_rad / 2
+                                             - cfg.zone_margin_rad, include_base=False)
+        lo_m, hi_m = lo_m + pred.pitch_rad, hi_m + pred.pitch_rad
+        with_margin = ((_held_from(lo_m, w), _held_from(hi_m, w), -1), (lo_m, hi_m, 0))
+    for k in range(1, lo.shape[1]):
+        def key(i: int, k: int = k) -> tuple[bool, float]:
+            return (not firm[i], -float(along[i, k]))
+
+        for i in misfits(sorted((i for i in idx if core[i, k]), key=key), k):
             factor[i, k] = min(factor[i, k], cfg.lead_weight_factor)
+        if sides is not None:
+            nearer = sorted((i for i in idx if sides[1][i, k]), key=key)
+            if nearer:
+                farther = sorted((i for i in idx if sides[0][i, k]), key=key)
+                for i in misfits(farther + nearer, k, with_margin) & set(nearer):
+                    factor[i, k] = min(factor[i, k], near_yield)
 
 
 def _margins(pred: HorizonPrediction, shadows: Sequence[TrackedShadow], served: list[tuple[int, bool]],
@@ -1295,8 +1362,12 @@ def simulate_pass(
     config: PitchLoopConfig,
     limits: MountLimits,
     rng: np.random.Generator,
+    score_config: PitchLoopConfig | None = None,
 ) -> PassResult:
     """Fly one pass in closed loop and score it against truth (pure; seeded by ``rng``).
+
+    ``score_config`` (default ``config``) gives the tracking zone the frames are scored
+    over, e.g. the plain 2-altitude zone for a loop configured with the fitted one.
 
     Each frame: truth scoring; every ``config.dt_s`` the controller gets the measured
     altitude, pitch and rate, the mount's tilt and the targets within ``lookahead_m``
@@ -1338,7 +1409,7 @@ def simulate_pass(
         rel_x = t_x - sc.speed_m_s * t
         geom = shadow_geometry(rel_x, t_y, t_h, t_f, sc.altitude_m)
         vis = whole_shadow_visible(geom, tilt_rad=tilt, pitch_rad=pitch, config=config)
-        rng_ok, lo_t, hi_t = _truth_in_range(geom, pitch_rad=pitch, config=config, limits=limits)
+        rng_ok, lo_t, hi_t = _truth_in_range(geom, pitch_rad=pitch, config=score_config or config, limits=limits)
         tilts[j], pitches[j] = tilt, pitch
         visible[j], in_range[j] = vis, rng_ok
         joint[j] = (not rng_ok.any()) or bool(np.max(lo_t[rng_ok]) <= np.min(hi_t[rng_ok]))

@@ -250,6 +250,11 @@ class AttitudeDisturbance:
 
     pitch = bias + wave amplitude * sin(2 pi t / period + phase) + gain * surge thrust;
     roll likewise with its own amplitude and period. Radians.
+
+    The surge thrust enters through a first-order lag of ``surge_pitch_lag_s`` (the
+    vehicle's pitch inertia against its restoring moment; the caller filters the thrust,
+    :meth:`lagged_surge_n`): a thruster's step change tips the nose over about a second,
+    not within one physics step.
     """
 
     pitch_bias_rad: float = 0.0
@@ -260,9 +265,26 @@ class AttitudeDisturbance:
     pitch_per_surge_rad_n: float = -math.radians(3.0) / 40.0  # nose dips at full thrust
     phase_pitch_rad: float = 0.0
     phase_roll_rad: float = 0.7
+    surge_pitch_lag_s: float = 0.8
 
-    def attitude(self, t_s: float, surge_n: float) -> tuple[float, float, float, float]:
-        """(pitch_rad, roll_rad, pitch_rate_rad_s, roll_rate_rad_s) at time ``t_s``."""
+    def __post_init__(self) -> None:
+        for key in ("pitch_period_s", "roll_period_s"):
+            if not (math.isfinite(getattr(self, key)) and getattr(self, key) > 0.0):
+                raise SimConfigError("must be finite and > 0", key=key)
+        if not (math.isfinite(self.surge_pitch_lag_s) and self.surge_pitch_lag_s >= 0.0):
+            raise SimConfigError("must be finite and >= 0 (0: no lag)", key="surge_pitch_lag_s")
+
+    def lagged_surge_n(self, filtered_n: float, surge_n: float, dt_s: float) -> float:
+        """One step of the surge thrust's lag: the filtered thrust after ``dt_s`` s, N."""
+        if self.surge_pitch_lag_s <= 0.0:
+            return surge_n
+        return filtered_n + (surge_n - filtered_n) * (1.0 - math.exp(-dt_s / self.surge_pitch_lag_s))
+
+    def attitude(self, t_s: float, surge_n: float, surge_rate_n_s: float = 0.0) -> tuple[float, float, float, float]:
+        """(pitch_rad, roll_rad, pitch_rate_rad_s, roll_rate_rad_s) at time ``t_s``.
+
+        ``surge_n`` is the (lagged) surge thrust, N, and ``surge_rate_n_s`` its rate, N/s.
+        """
         wp = 2.0 * math.pi / self.pitch_period_s
         wr = 2.0 * math.pi / self.roll_period_s
         ap = wp * t_s + self.phase_pitch_rad
@@ -276,7 +298,7 @@ class AttitudeDisturbance:
         return (
             pitch,
             roll,
-            self.pitch_amplitude_rad * wp * math.cos(ap),
+            self.pitch_amplitude_rad * wp * math.cos(ap) + self.pitch_per_surge_rad_n * surge_rate_n_s,
             self.roll_amplitude_rad * wr * math.cos(ar),
         )
 

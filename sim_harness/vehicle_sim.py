@@ -268,6 +268,8 @@ class VehicleSimulator:
             0.0, 0.0, 0.0, 0.0,
         )
         self._thrust: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+        self._pitch_surge_n = 0.0  # the surge thrust through the pitch lag (AttitudeDisturbance)
+        self._pitch_surge_rate_n_s = 0.0
         self._tilt_rad = cfg.mount.default_tilt_rad
         self._step_index = 0
         self._t0 = self.clock.now_s()
@@ -336,7 +338,7 @@ class VehicleSimulator:
             if replies:
                 self.port.send(replies, t)
         north, east, down = self._state[0], self._state[1], self._state[2]
-        attitude = cfg.disturbance.attitude(t, self._thrust[0])
+        attitude = cfg.disturbance.attitude(t, self._pitch_surge_n, self._pitch_surge_rate_n_s)
         readings = self.sensors.sample(t, self._state, attitude)
         if self.sonar is not None:
             self._capture_sonar(t, attitude, readings)
@@ -344,6 +346,9 @@ class VehicleSimulator:
         if self.port is not None:
             self.port.send(out, t)
         self._thrust = (thrust[0], thrust[1], thrust[2], thrust[3])
+        lagged = cfg.disturbance.lagged_surge_n(self._pitch_surge_n, thrust[0], dt)
+        self._pitch_surge_rate_n_s = (lagged - self._pitch_surge_n) / dt
+        self._pitch_surge_n = lagged
         current = self.current.velocity_ned_m_s(north, east, down, t)
         state = step_rk4(self._state, self._thrust, current, dt, cfg.rov)
         if state[2] < 0.0:  # the surface: the vehicle cannot fly out of the water
@@ -352,7 +357,7 @@ class VehicleSimulator:
         self._tilt_rad = slew_tilt(self._tilt_rad, mount_target, dt, cfg.mount)
         self._step_index += 1
         t_next = self._t0 + self._step_index * dt
-        self._update_truth(t_next, cfg.disturbance.attitude(t_next, self._thrust[0]))
+        self._update_truth(t_next, cfg.disturbance.attitude(t_next, self._pitch_surge_n, self._pitch_surge_rate_n_s))
         self.clock.advance_to(t_next)
 
     def run_for(self, duration_s: float) -> None:

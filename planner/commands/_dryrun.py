@@ -36,7 +36,7 @@ from planner.safety import SafetyLimits
 from planner.survey import plan_survey
 from planner.survey_plan import SurveyPlan
 from sim_harness.clock import SimClock
-from sim_harness.dynamics import UniformCurrent
+from sim_harness.dynamics import AttitudeDisturbance, UniformCurrent
 from sim_harness.faults import FaultConfig, TimeWindow
 from sim_harness.scene import Scene, load_scene
 from sim_harness.sensors import SensorConfig
@@ -55,7 +55,11 @@ FOV_SETTLE_S = 1.0
 #: Tilts tried, rad, when asking whether some tilt within the mount's limits shows a shadow.
 FOV_TILT_STEP_RAD = math.radians(0.1)
 _SCENARIO_KEYS = {"name", "description", "scene", "area", "survey", "vehicle", "executor", "faults", "current",
-                  "sensors"}
+                  "sensors", "attitude"}
+#: ``[attitude]`` keys (degrees and seconds) and the AttitudeDisturbance field each sets.
+_ATTITUDE_KEYS = {"pitch_bias_deg": "pitch_bias_rad", "pitch_amplitude_deg": "pitch_amplitude_rad",
+                  "pitch_period_s": "pitch_period_s", "roll_amplitude_deg": "roll_amplitude_rad",
+                  "roll_period_s": "roll_period_s"}
 
 
 @dataclass(frozen=True)
@@ -78,6 +82,7 @@ class Scenario:
     seed: int = 0
     sensors: SensorConfig = field(default_factory=SensorConfig)
     link_timeout_s: float = 5.0
+    attitude: AttitudeDisturbance = field(default_factory=AttitudeDisturbance)
 
 
 def _scenario_file(source: str | Path) -> Path:
@@ -90,6 +95,34 @@ def _scenario_file(source: str | Path) -> Path:
     if not path.is_file():
         raise FileNotFoundError(f"{source}: no scenario file (built-in scenarios: {', '.join(BUILTIN_SCENARIOS)})")
     return path
+
+
+def _attitude(doc: Any, path: str) -> AttitudeDisturbance:
+    """The ``[attitude]`` table: the vehicle's pitch and roll disturbance (waves, trim).
+
+    Keys (all optional; the simulator's defaults otherwise): ``pitch_bias_deg`` (trim,
+    positive nose up), ``pitch_amplitude_deg``, ``pitch_period_s``, ``roll_amplitude_deg``,
+    ``roll_period_s``.
+    """
+    if not isinstance(doc, dict):
+        raise ConfigError("must be a table", key="attitude", path=path)
+    unknown = sorted(set(doc) - set(_ATTITUDE_KEYS))
+    if unknown:
+        raise ConfigError(f"unknown key; allowed: {', '.join(sorted(_ATTITUDE_KEYS))}", key=f"attitude.{unknown[0]}",
+                          path=path)
+    kwargs: dict[str, float] = {}
+    for key, value in doc.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"must be a finite number, got {value!r}", key=f"attitude.{key}", path=path)
+        if key.endswith("_period_s") and not value > 0:
+            raise ConfigError(f"must be > 0 s, got {value!r}", key=f"attitude.{key}", path=path)
+        if key.endswith("_amplitude_deg") and not 0 <= value <= 30:
+            raise ConfigError(f"must be within 0-30 deg, got {value!r}", key=f"attitude.{key}", path=path)
+        if key == "pitch_bias_deg" and not abs(value) <= 30:
+            raise ConfigError(f"must be within +-30 deg, got {value!r}", key=f"attitude.{key}", path=path)
+        field_name = _ATTITUDE_KEYS[key]
+        kwargs[field_name] = math.radians(value) if key.endswith("_deg") else float(value)
+    return AttitudeDisturbance(**kwargs)
 
 
 def _windows(value: Any, key: str, path: str) -> tuple[TimeWindow, ...]:
@@ -144,6 +177,7 @@ def load_scenario(source: str | Path, **overrides: Any) -> Scenario:
     except TypeError as exc:
         raise ConfigError(f"bad sensor setting: {exc}", key="sensors", path=where) from exc
     current = doc.get("current", {})
+    attitude = _attitude(doc.get("attitude", {}), where)
     executor = dict(doc.get("executor", {}))
     pitch_loop = bool(executor.pop("pitch_loop", True))
     link_timeout_s = float(executor.pop("link_timeout_s", 5.0))
@@ -158,6 +192,7 @@ def load_scenario(source: str | Path, **overrides: Any) -> Scenario:
         current_north_m_s=float(current.get("north_m_s", 0.0)),
         current_east_m_s=float(current.get("east_m_s", 0.0)),
         pitch_loop=pitch_loop, seed=int(vehicle.get("seed", 0)), sensors=sensors, link_timeout_s=link_timeout_s,
+        attitude=attitude,
     )
     return replace(scenario, **overrides) if overrides else scenario
 
@@ -235,7 +270,7 @@ def run_dry_dive(
         scene.world,
         config=VehicleConfig(start_north_m=scenario.start_north_m, start_east_m=scenario.start_east_m,
                              start_yaw_rad=scenario.start_heading_rad, seed=scenario.seed,
-                             sensors=scenario.sensors),
+                             sensors=scenario.sensors, disturbance=scenario.attitude),
         faults=scenario.faults, clock=clock, listen="udp:127.0.0.1:0", sonar_renderer=renderer,
         current=UniformCurrent(scenario.current_north_m_s, scenario.current_east_m_s),
     )

@@ -626,8 +626,9 @@ def test_truth_visibility_over_tilts_matches_the_band(alt: float, near: float, l
 
 
 def _zone_span_rad(alt: float, start: float, window_end: float, height: float) -> float:
-    """Depression span, rad: shadow start of a ``height`` target at ``start`` to the window's end."""
-    steep = math.asin(alt / math.hypot(start, alt - height))
+    """Depression span, rad: shadow start of a ``height`` target at ``start`` to the window's end
+    (a shadow starting under the sonar, nearer than the altitude, is at 90 deg)."""
+    steep = math.asin(min(1.0, alt / math.hypot(start, alt - height)))
     return steep - math.asin(alt / window_end)
 
 
@@ -686,8 +687,9 @@ def test_tracking_zone_fits_the_aperture(alt: float, window_end: float, aperture
 
 def test_config_zone_uses_the_loop_margin_and_the_tall_prior() -> None:
     """The loop's zone: margin plus the pitch envelope over one step at each edge, the
-    tall height prior; a target between 2 altitudes and the zone start is too close."""
-    cfg = _config(window_m=(0.7, 3.0), dt_s=0.2, height_prior_m=0.2)
+    tall height prior; without the near band a target between 2 altitudes and the zone
+    start is too close (with it, see the near-band tests, it is served)."""
+    cfg = _config(window_m=(0.7, 3.0), dt_s=0.2, height_prior_m=0.2, near_weight_factor=0.0)
     assert cfg.zone_margin_rad == pytest.approx(cfg.margin_rad + 0.5 * cfg.pitch_accel_max_rad_s2 * 0.04)
     start = float(cfg.zone_start_m(0.5))
     want = float(tracking_zone_start_m(0.5, window_end_m=3.0, elevation_aperture_rad=cfg.elevation_aperture_rad,
@@ -702,9 +704,57 @@ def test_config_zone_uses_the_loop_margin_and_the_tall_prior() -> None:
     cmd = lp.step(state, [inside, gap])
     assert {d.target_id: d.reason for d in cmd.dropped} == {"gap": TOO_CLOSE}
     assert [m.target_id for m in cmd.margins] == ["inside"]
-    # Over the plain zone the same target is served.
+    # Over the plain zone the same target is served, and so it is in the near band.
     plain = PitchLoop(dataclasses.replace(cfg, zone_fits_aperture=False), LIMITS)
     assert {m.target_id for m in plain.step(state, [inside, gap]).margins} == {"inside", "gap"}
+    banded = PitchLoop(dataclasses.replace(cfg, near_weight_factor=0.25), LIMITS)
+    assert float(banded.config.near_start_m(0.5)) == pytest.approx(1.0)  # 2 altitudes
+    assert {m.target_id for m in banded.step(state, [inside, gap]).margins} == {"inside", "gap"}
+    assert not banded.step(state, [inside, gap]).dropped
+
+
+def _settle(lp: PitchLoop, state: PitchState, shadows: list[TrackedShadow], steps: int = 10):
+    for _ in range(steps):
+        cmd = lp.step(state, shadows)
+        state = dataclasses.replace(state, current_tilt_rad=cmd.tilt_rad)
+    return cmd
+
+
+def test_near_band_target_is_followed_when_it_costs_nothing() -> None:
+    """Alone, a target nearer than the fitted zone (but beyond 2 altitudes) keeps its whole
+    shadow in view with the band on; with the band off it is dropped and the beam stays
+    at the nominal tilt, which (here) cuts its shadow."""
+    cfg = _config(window_m=(0.7, 3.0), dt_s=0.2, height_prior_m=0.2, nominal_tilt_rad=math.radians(12.0),
+                  zone_lead_m=0.1)
+    start = float(cfg.zone_start_m(0.5))
+    near = TrackedShadow("near", 1.1, 0.0, 0.05, measured=True)
+    assert 1.0 < near.along_m < start - cfg.zone_lead_m
+    state = PitchState(altitude_m=0.5, vehicle_pitch_rad=0.0, speed_m_s=0.0, current_tilt_rad=math.radians(12.0))
+    on = _settle(PitchLoop(cfg, LIMITS), state, [near])
+    assert [m.target_id for m in on.margins] == ["near"] and on.margins[0].inside
+    off_cfg = dataclasses.replace(cfg, near_weight_factor=0.0)
+    off = _settle(PitchLoop(off_cfg, LIMITS), state, [near])
+    assert [d.reason for d in off.dropped] == [TOO_CLOSE]
+    assert off.tilt_rad == pytest.approx(math.radians(12.0), abs=1e-3)
+    seen_off = FixedTilt(dataclasses.replace(off_cfg, zone_fits_aperture=False), LIMITS).step(
+        dataclasses.replace(state, current_tilt_rad=off.tilt_rad), [near])
+    assert not seen_off.margins[0].inside  # the tilt that serves the zone cuts the near shadow
+
+
+def test_near_band_target_yields_to_a_target_in_the_zone() -> None:
+    """In a conflict (no tilt shows both), the near-band target gives way: the target in
+    the fitted zone keeps its full margin."""
+    cfg = _config(window_m=(0.7, 4.0), dt_s=0.2, height_prior_m=0.2)
+    start = float(cfg.zone_start_m(0.5))
+    far = TrackedShadow("far", 3.5, 0.0, 0.05, measured=True)
+    near = TrackedShadow("near", 1.02, 0.0, 0.05, measured=True)
+    assert far.along_m > start and 1.0 < near.along_m < start
+    state = PitchState(altitude_m=0.5, vehicle_pitch_rad=0.0, speed_m_s=0.0, current_tilt_rad=math.radians(15.0))
+    cmd = _settle(PitchLoop(cfg, LIMITS), state, [far, near])
+    margin = {m.target_id: min(m.far_margin_rad, m.near_margin_rad) for m in cmd.margins}
+    assert set(margin) == {"far", "near"}
+    assert margin["near"] < 0.0  # the premise: they conflict
+    assert margin["far"] >= cfg.margin_rad - 1e-6
 
 
 def test_targets_in_the_fitted_zone_never_conflict() -> None:
@@ -749,3 +799,22 @@ def test_zone_centred_tilt_and_zone_description() -> None:
     # The loop's zone for the same pass is the same zone.
     loop_zone = describe_zone(loop_config(settings_, nominal_tilt_rad=pass_.tilt_rad), 0.5)  # type: ignore[arg-type]
     assert loop_zone == zone
+
+
+def test_near_band_target_yields_to_a_far_target_the_prior_puts_past_the_window() -> None:
+    """A far target seen without a height yet: the tall prior puts its shadow end past the
+    window (lead band only, weighed little), though its true shadow is in range. A target
+    in the near band that conflicts with it still gives way, so the beam stays on it."""
+    cfg = _config(window_m=(0.7, 4.0), dt_s=0.2, height_prior_m=0.4)
+    far = TrackedShadow("far", 3.3, 0.0, None, measured=True)  # 3.3 * 0.5 / 0.1 = 16.5 m with the prior
+    near = TrackedShadow("near", 1.02, 0.0, 0.05, measured=True)
+    assert far.along_m > float(cfg.zone_start_m(0.5)) and 1.0 < near.along_m < float(cfg.zone_start_m(0.5))
+    state = PitchState(altitude_m=0.5, vehicle_pitch_rad=0.0, speed_m_s=0.0, current_tilt_rad=math.radians(15.0))
+    cmd = _settle(PitchLoop(cfg, LIMITS), state, [far, near])
+    # judge the far target's shadow with its true height (5 cm): seen whole
+    true_far = dataclasses.replace(far, height_m=0.05)
+    judged = FixedTilt(dataclasses.replace(cfg, nominal_tilt_rad=cmd.tilt_rad), LIMITS).step(
+        dataclasses.replace(state, current_tilt_rad=cmd.tilt_rad), [true_far, near])
+    margin = {m.target_id: min(m.far_margin_rad, m.near_margin_rad) for m in judged.margins}
+    assert margin["near"] < 0.0  # the premise: they conflict
+    assert margin["far"] >= 0.0
