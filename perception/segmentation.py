@@ -55,10 +55,12 @@ from numpy.typing import NDArray
 from perception.segmentation_band import (
     BAND_EDGE_STRIDE,
     BAND_EDGE_TOLERANCE_ROWS,
+    band_edges,
     column_band,
     insonified_rows,
     longest_run,
     shadow_in_band,
+    shadow_in_edges,
 )
 from perception.segmentation_classical import classical_regions
 from perception.segmentation_grid import (
@@ -117,6 +119,7 @@ __all__ = [
     "row_background",
     "running_min_max",
     "segment",
+    "shadow_in_band",
     "with_core",
 ]
 
@@ -254,7 +257,10 @@ def segment(image: NDArray[np.generic], *, config: SegmentationConfig | None = N
     # The band and the row levels come from every d-th row, whatever the method; the
     # speckle method also finds its regions there (the detection grid).
     d = max(1, n_rows // cfg.detection_rows) if cfg.detection_rows else 1
-    centres = np.minimum(np.arange(d // 2, n_rows + d // 2, d), n_rows - 1)
+    centres = np.arange(d // 2, n_rows + d // 2, d)
+    if centres.size and centres[-1] >= n_rows:
+        # (Only when the last block is short.)
+        centres = np.minimum(centres, n_rows - 1)
     grid = grid_smooth(levels, centres, samples=cfg.smooth_samples, beams=cfg.smooth_beams)
     block = max(1, cfg.background_block_samples // d)
     background = row_background_of(grid, block_samples=block, non_negative=levels.dtype == np.uint8)
@@ -262,7 +268,8 @@ def segment(image: NDArray[np.generic], *, config: SegmentationConfig | None = N
     seabed_floor = percentile90(background) - drop
     # insonified_rows(background, drop=drop) without taking the percentile again.
     band = longest_run(background >= seabed_floor)
-    start_grid, stop_grid = column_band(
+    # Row 0: each beam's first band row (of the grid), row 1: its last (column_band as one array).
+    edges = band_edges(
         grid, band, level=seabed_floor, stride=max(1, BAND_EDGE_STRIDE // d),
         tolerance_rows=BAND_EDGE_TOLERANCE_ROWS / d,
     )
@@ -279,7 +286,7 @@ def segment(image: NDArray[np.generic], *, config: SegmentationConfig | None = N
         # is written whole below.
         both = np.empty((grid.shape[0], 2 * n_cols + 1), dtype=np.uint8)
         both[:, n_cols] = 0
-        shadow_in_band(grid, shadow_limit, start_grid, stop_grid, out=both[:, :n_cols].view(bool))
+        shadow_in_edges(grid, shadow_limit, edges, out=both[:, :n_cols].view(bool))
         np.greater(grid, highlight_limit[:, None], out=both[:, n_cols + 1 :].view(bool))
         if cfg.open_size > 1 or cfg.close_size > 1:
             for part in (both[:, :n_cols], both[:, n_cols + 1 :]):
@@ -297,8 +304,9 @@ def segment(image: NDArray[np.generic], *, config: SegmentationConfig | None = N
         )
         labels = labelled.labels
         shadow_labels, highlight_labels = labels[:, :n_cols], labels[:, n_cols + 1 :]
-        shadows = tuple(r for r in regions if r.kind == "shadow")
-        highlights = tuple(r for r in regions if r.kind == "highlight")
+        # (List comprehensions: cheaper than generators into tuple.)
+        shadows = tuple([r for r in regions if r.kind == "shadow"])
+        highlights = tuple([r for r in regions if r.kind == "highlight"])
         shadow_rows = (first[:, :n_cols], last[:, :n_cols])
         highlight_rows = (first[:, n_cols + 1 :], last[:, n_cols + 1 :])
         step = d
@@ -309,7 +317,8 @@ def segment(image: NDArray[np.generic], *, config: SegmentationConfig | None = N
         shadow_limit = np.full(centres.size, np.nan, dtype=np.float32)
         highlight_limit = shadow_limit
         step = 1
-    return Segmentation(
+    band_rows = centres.take(edges)
+    return _new_segmentation(
         grid_highlight_labels=highlight_labels,
         grid_shadow_labels=shadow_labels,
         row_step=step,
@@ -327,10 +336,21 @@ def segment(image: NDArray[np.generic], *, config: SegmentationConfig | None = N
         grid_highlight_limit=highlight_limit,
         seabed_floor=seabed_floor,
         insonified_rows=np.repeat(band, d)[:n_rows],
-        band_start_rows=centres[start_grid],
-        band_stop_rows=centres[stop_grid],
+        band_start_rows=band_rows[0],
+        band_stop_rows=band_rows[1],
         method=cfg.method,
     )
+
+
+def _new_segmentation(**fields: object) -> Segmentation:
+    """``Segmentation(**fields)`` (every field by name) without the frozen ``__init__``'s per-field setattr.
+
+    Filling the new instance's ``__dict__`` gives the same object (same attributes; the
+    cached properties live in that ``__dict__`` too), in a fraction of the time.
+    """
+    result = object.__new__(Segmentation)
+    result.__dict__.update(fields)
+    return result
 
 
 def _core_pixels(
@@ -343,14 +363,20 @@ def _core_pixels(
 
     Shadow pixels (left of the blank column) below their row's ``shadow_core``, highlight
     pixels (right of it) above ``highlight_core``: the counts :func:`with_core` takes from
-    whole-grid core masks, tested at the labelled pixels only (a few percent of the grid).
+    whole-grid core masks, read at the labelled pixels only.
     """
-    n_cols = grid.shape[1]
-    rows, cols = labelled.rows, labelled.cols
-    is_shadow = cols < n_cols
-    value = grid.ravel().take(rows * n_cols + np.where(is_shadow, cols, cols - (n_cols + 1)))
-    core = np.where(is_shadow, value < shadow_core[rows], value > highlight_core[rows])
-    return np.bincount(labelled.pixel_labels[core], minlength=labelled.n_labels)
+    n_rows, n_cols = grid.shape
+    pixels = labelled.pixels
+    if pixels is None or pixels.size == 0:
+        return np.zeros(labelled.n_labels, dtype=np.int64)
+    # Both core masks side by side like the labelled masks, over the rows holding labelled
+    # pixels (the only ones read): each labelled pixel's flat index reads its own test.
+    # The blank column is never read.
+    lo, hi = int(labelled.rows[0]), int(labelled.rows[-1]) + 1
+    core = np.empty((n_rows, 2 * n_cols + 1), dtype=bool)
+    np.less(grid[lo:hi], shadow_core[lo:hi, None], out=core[lo:hi, :n_cols])
+    np.greater(grid[lo:hi], highlight_core[lo:hi, None], out=core[lo:hi, n_cols + 1 :])
+    return np.bincount(labelled.pixel_labels[core.ravel().take(pixels)], minlength=labelled.n_labels)
 
 
 def mask_iou(predicted: NDArray[np.bool_], truth: NDArray[np.bool_]) -> float:

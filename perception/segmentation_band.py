@@ -34,38 +34,53 @@ def insonified_rows(background: NDArray[np.float32], *, drop: float) -> NDArray[
 
 def longest_run(above: NDArray[np.bool_]) -> NDArray[np.bool_]:
     """The longest run of True in ``above`` (the first of equal ones), shape of ``above``."""
+    true_at = above.nonzero()[0]
+    if true_at.size == 0 or int(true_at[-1]) - int(true_at[0]) + 1 == true_at.size:
+        # No True, or one run (the usual band): it is ``above`` itself.
+        return above.copy()
     padded = np.zeros(above.size + 2, dtype=bool)
     padded[1:-1] = above
-    edges = np.flatnonzero(padded[1:] != padded[:-1])
+    edges = (padded[1:] != padded[:-1]).nonzero()[0]
     out = np.zeros(above.shape, dtype=bool)
     if edges.size == 0:
         return out
     starts, stops = edges[0::2], edges[1::2]
-    best = int(np.argmax(stops - starts))
+    best = int((stops - starts).argmax())
     out[starts[best] : stops[best]] = True
     return out
 
 
 def _robust_edge(
-    values: NDArray[np.intp], valid: NDArray[np.bool_], *, later_is_outlier: bool, tolerance: float
-) -> NDArray[np.intp]:
+    values: NDArray[np.intp],
+    valid: NDArray[np.bool_],
+    *,
+    later_is_outlier: bool,
+    tolerance: float,
+    out: NDArray[np.intp],
+    target: NDArray[np.float64] | None = None,
+    n_valid: int | None = None,
+) -> None:
     """A parabola over beams through band-edge rows, ignoring edges moved by shadows.
 
     A shadow at the band's near edge moves that beam's first seabed row later; at the
     far edge it moves the last seabed row earlier. Those beams (more than ``tolerance``
     rows off the fit) are dropped and the parabola refitted (two passes). With fewer
-    than 3 usable beams (or a singular fit) the rows are returned as they are.
+    than 3 usable beams (or a singular fit) the rows are kept as they are. Written into
+    ``out`` (shape of ``values``), which may be ``values``. ``target`` (``values`` as
+    float64) and ``n_valid`` (True in ``valid``) are taken when given.
     """
     powers = _beam_powers(values.size)
     x = powers[1]
-    target = values.astype(np.float64)
+    if target is None:
+        target = values.astype(np.float64)
     use = valid
-    n_use = int(np.count_nonzero(use))
+    n_use = int(np.count_nonzero(use)) if n_valid is None else n_valid
     fitted = target
     for refit in (False, True):
         coeffs = _fit_parabola(powers, target, use, n_use)
         if coeffs is None:
-            return values
+            out[...] = values
+            return
         # c0 + c1 x + c2 x x, in place (the same operations: + and * commute exactly).
         fitted = x * coeffs[1]
         fitted += coeffs[0]
@@ -75,13 +90,20 @@ def _robust_edge(
         if refit:
             break
         residual = target - fitted
+        if n_use == values.size and (
+            np.maximum.reduce(residual) <= tolerance if later_is_outlier else np.minimum.reduce(residual) >= -tolerance
+        ):
+            # Every beam used and none off the fit: the refit would be this fit (one
+            # reduction decides it without building ``kept``).
+            break
         kept = valid & ((residual <= tolerance) if later_is_outlier else (residual >= -tolerance))
         n_kept = np.count_nonzero(kept)
         if n_kept == n_use:
             # No beam dropped (``kept`` is a subset of ``use``): the refit would be this fit.
             break
         use, n_use = kept, int(n_kept)
-    return np.rint(fitted).astype(np.intp)
+    # Assignment casts as ``astype(np.intp)`` does (the values are whole numbers).
+    out[...] = np.rint(fitted)
 
 
 def _fit_parabola(
@@ -147,10 +169,19 @@ def column_band(
     Every ``stride``-th row is searched. Returns (start, stop), shape (n_beams,), rows of
     ``smoothed``.
     """
+    edges = band_edges(smoothed, rows, level=level, stride=stride, tolerance_rows=tolerance_rows)
+    return edges[0], edges[1]
+
+
+def band_edges(
+    smoothed: NDArray[np.float32], rows: NDArray[np.bool_], *, level: float, stride: int = BAND_EDGE_STRIDE,
+    tolerance_rows: float = BAND_EDGE_TOLERANCE_ROWS,
+) -> NDArray[np.intp]:
+    """:func:`column_band` as one array: shape (2, n_beams), the start rows then the stop rows."""
     n_cols = smoothed.shape[1]
-    band = np.flatnonzero(rows)
+    band = rows.nonzero()[0]
     if band.size == 0:
-        return np.ones(n_cols, dtype=np.intp), np.zeros(n_cols, dtype=np.intp)
+        return np.array([np.ones(n_cols, dtype=np.intp), np.zeros(n_cols, dtype=np.intp)])
     r0, r1 = int(band[0]), int(band[-1]) + 1
     inside = (smoothed[r0:r1:stride] >= level).view(np.uint8)
     # Each beam's first and last seabed row by argmax along contiguous memory: OpenCV
@@ -158,17 +189,26 @@ def column_band(
     # rows reversed) far faster than numpy's argmax copies along the first axis.
     by_beam = np.asarray(cv2.transpose(inside)).view(bool)
     by_beam_reversed = np.asarray(cv2.rotate(inside, cv2.ROTATE_90_CLOCKWISE)).view(bool)
-    first = by_beam.argmax(axis=1)
+    ends = np.empty((2, n_cols), dtype=np.intp)
+    by_beam.argmax(axis=1, out=ends[0])
+    by_beam_reversed.argmax(axis=1, out=ends[1])
     # A beam with a seabed row: its first one is past row 0, or row 0 is one.
-    any_row = (first > 0) | by_beam[:, 0]
-    start = r0 + stride * first
-    stop = r0 + stride * (inside.shape[0] - 1 - by_beam_reversed.argmax(axis=1))
+    any_row = (ends[0] > 0) | by_beam[:, 0]
+    # Row 0 holds the first seabed rows (r0 + stride * first), row 1 the last ones
+    # (r0 + stride * (last searched row - reversed argmax)); integers, exact in any order.
+    np.subtract(inside.shape[0] - 1, ends[1], out=ends[1])
+    if stride != 1:
+        ends *= stride
+    ends += r0
+    # Each edge's fit is written over its rows (read first, as ``target``).
+    target, n_valid = ends.astype(np.float64), int(np.count_nonzero(any_row))
+    for e in (0, 1):
+        _robust_edge(
+            ends[e], any_row, later_is_outlier=e == 0, tolerance=tolerance_rows, out=ends[e], target=target[e],
+            n_valid=n_valid,
+        )
     # (np.clip costs several times more than the two calls.)
-    start = np.minimum(np.maximum(
-        _robust_edge(start, any_row, later_is_outlier=True, tolerance=tolerance_rows), r0), r1 - 1)
-    stop = np.minimum(np.maximum(
-        _robust_edge(stop, any_row, later_is_outlier=False, tolerance=tolerance_rows), r0), r1 - 1)
-    return start, stop
+    return np.minimum(np.maximum(ends, r0, out=ends), r1 - 1, out=ends)
 
 
 def shadow_in_band(
@@ -184,20 +224,45 @@ def shadow_in_band(
     The per-beam test is only needed in the rows where the curved band edges lie.
     Written into ``out`` (shape of ``smoothed``) when given.
     """
-    n_rows = smoothed.shape[0]
-    lo, hi = int(start.min()), int(stop.max()) + 1
-    # Only the rows from the first band row to the last are compared; the others are not shadow.
     shadow = np.empty(smoothed.shape, dtype=bool) if out is None else out
+    bounds = (int(start.min()), int(start.max()), int(stop.min()), int(stop.max()))
+    _shadow_in_band(smoothed, below, start, stop, bounds, shadow)
+    return shadow
+
+
+def shadow_in_edges(
+    smoothed: NDArray[np.float32], below: NDArray[np.float32], edges: NDArray[np.intp], *, out: NDArray[np.bool_]
+) -> None:
+    """:func:`shadow_in_band` with the band's edges as :func:`band_edges` gives them, into ``out``."""
+    # Both edges' least and greatest rows in two reductions (no Python wrappers).
+    (start_min, stop_min), (start_max, stop_max) = (
+        np.minimum.reduce(edges, axis=1).tolist(), np.maximum.reduce(edges, axis=1).tolist()
+    )
+    _shadow_in_band(smoothed, below, edges[0], edges[1], (start_min, start_max, stop_min, stop_max), out)
+
+
+def _shadow_in_band(
+    smoothed: NDArray[np.float32],
+    below: NDArray[np.float32],
+    start: NDArray[np.intp],
+    stop: NDArray[np.intp],
+    bounds: tuple[int, int, int, int],
+    shadow: NDArray[np.bool_],
+) -> None:
+    """:func:`shadow_in_band` into ``shadow``, given (min, max) of ``start`` and of ``stop``."""
+    n_rows = smoothed.shape[0]
+    start_min, start_max, stop_min, stop_max = bounds
+    lo, hi = start_min, stop_max + 1
+    # Only the rows from the first band row to the last are compared; the others are not shadow.
     first, stop_row = max(lo, 0), max(hi, lo, 0)
     shadow[:first] = False
     shadow[stop_row:] = False
     np.less(smoothed[first:stop_row], below[first:stop_row, None], out=shadow[first:stop_row])
-    near_end = min(int(start.max()), n_rows)
+    near_end = min(start_max, n_rows)
     if near_end > lo:
         rows = np.arange(lo, near_end)[:, None]
         shadow[lo:near_end] &= rows >= start[None, :]
-    far_start = max(int(stop.min()) + 1, 0)
+    far_start = max(stop_min + 1, 0)
     if hi > far_start:
         rows = np.arange(far_start, hi)[:, None]
         shadow[far_start:hi] &= rows <= stop[None, :]
-    return shadow

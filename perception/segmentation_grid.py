@@ -22,8 +22,6 @@ Extents = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]
 #: Per label and column: first and last full-resolution row (-1 where absent).
 ColumnRows = tuple[NDArray[np.int64], NDArray[np.int64]]
 
-_INT64_MAX = np.iinfo(np.int64).max
-
 
 @dataclass(frozen=True)
 class Region:
@@ -133,6 +131,8 @@ class LabelledMask:
         Row and column of each nonzero pixel of the mask (rows ascending, then columns).
     pixel_labels : ndarray, shape (n_pixels,), int32
         The label of each of those pixels.
+    pixels : ndarray, shape (n_pixels,), int64, or None
+        Their flat indices ``row * n_cols + col`` in the mask (None: not given).
     """
 
     labels: NDArray[np.int32]
@@ -140,6 +140,7 @@ class LabelledMask:
     rows: NDArray[np.int64]
     cols: NDArray[np.int64]
     pixel_labels: NDArray[np.int32]
+    pixels: NDArray[np.int64] | None = None
 
 
 def label_mask(mask: NDArray[np.bool_]) -> LabelledMask:
@@ -153,11 +154,13 @@ def label_mask(mask: NDArray[np.bool_]) -> LabelledMask:
     mask : ndarray, shape (n_rows, n_cols), bool, C-contiguous
     """
     n_cols = mask.shape[1]
-    # ``flatnonzero`` of a bool array is many times faster than of uint8 (or cv2.findNonZero).
-    pixels = np.flatnonzero(mask)
+    # The nonzero of a bool array is many times faster than of uint8 (or cv2.findNonZero).
+    pixels = mask.ravel().nonzero()[0]
     if pixels.size == 0:
         empty = np.zeros(0, dtype=np.int64)
-        return LabelledMask(np.zeros(mask.shape, dtype=np.int32), 1, empty, empty.copy(), np.zeros(0, dtype=np.int32))
+        return LabelledMask(
+            np.zeros(mask.shape, dtype=np.int32), 1, empty, empty.copy(), np.zeros(0, dtype=np.int32), pixels
+        )
     r0, r1 = int(pixels[0]) // n_cols, int(pixels[-1]) // n_cols + 1
     # Labelled in place into the occupied rows of ``labels`` (every pixel there written);
     # the rows around them are none.
@@ -168,7 +171,7 @@ def label_mask(mask: NDArray[np.bool_]) -> LabelledMask:
         mask[r0:r1].view(np.uint8), labels=labels[r0:r1], connectivity=8, ltype=cv2.CV_32S
     )
     rows, cols = np.divmod(pixels, n_cols)
-    return LabelledMask(labels, int(n), rows, cols, labels.ravel().take(pixels))
+    return LabelledMask(labels, int(n), rows, cols, labels.ravel().take(pixels), pixels)
 
 
 def grid_components(
@@ -247,7 +250,8 @@ def labelled_regions(
         np.minimum(bottom, full_rows - 1, out=bottom)
     # -1 where a label is absent from a column. The minimum starts from the maximum of the
     # same key (never smaller than its pixels' rows), so absent stays -1.
-    last_full = np.full(n * n_cols, -1, dtype=np.int64)
+    last_full = np.empty(n * n_cols, dtype=np.int64)
+    last_full.fill(-1)
     np.maximum.at(last_full, key, bottom)
     first_full = last_full.copy()
     np.minimum.at(first_full, key, top)
@@ -256,14 +260,17 @@ def labelled_regions(
     # Labels 1.. have at least one pixel, label 0 none: area >= 1 and area * d >= the
     # smaller of the two minima.
     least_area = min(min_area_px, min_area_px if second is None else second[2])
-    keep = np.flatnonzero(area >= max(1, -(-least_area // d)))
+    keep = (area >= max(1, -(-least_area // d))).nonzero()[0]
     # Per label (all of them: fewer calls than picking the kept ones first); the loop
-    # below reads the kept ones from lists.
+    # below reads the kept ones from lists. (ufunc reductions and array methods skip
+    # numpy's Python-level wrappers.)
     present = last_full >= 0
-    row_start = np.where(present, first_full, _INT64_MAX).min(axis=1)
-    row_end = last_full.max(axis=1)
-    col_start = np.argmax(present, axis=1)
-    col_end_from_right = np.argmax(present[:, ::-1], axis=1)
+    # As unsigned, absent (-1) is the greatest value: the least is that of the present
+    # columns (label 0, never kept, has none).
+    row_start = np.minimum.reduce(first_full.view(np.uint64), axis=1)
+    row_end = np.maximum.reduce(last_full, axis=1)
+    col_start = present.argmax(axis=1)
+    col_end_from_right = present[:, ::-1].argmax(axis=1)
     row_sum = np.bincount(label, weights=rows, minlength=n).tolist()
     col_sum = np.bincount(label, weights=cols, minlength=n).tolist()
     kinds = [(kind, 0, min_area_px, min_core_px[0])]

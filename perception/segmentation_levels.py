@@ -89,24 +89,35 @@ def grid_smooth(
     step = int(rows[1] - rows[0]) if rows.size > 1 else 0
     if (
         wide and step > 0 and rows.size * step == n_rows and int(rows[0]) == step // 2
-        and step // 2 - half >= 0 and step // 2 + half < step
+        and step // 2 - half >= 0 and step // 2 + half < step and (2 * half + 1) * beams * 255 < 2**24
     ):
         # The detection grid's rows (the middle row of every block of ``step`` rows): the
-        # sum over the rows around each is one reduction over a reshaped view.
-        # Row by row adds (exact integer sums) are several times faster than numpy's
-        # strided reduction over the middle axis.
+        # sum over the rows around each is a sum of rows of a reshaped view, then a sum of
+        # neighbouring columns (edges replicated). OpenCV adds the strided rows and columns
+        # into float32 faster than numpy's adds or its box filter; every sum is exact
+        # (whole numbers below 2**24), so they equal the integer sums of the other branch.
         blocks = image.reshape(rows.size, step, n_cols)[:, step // 2 - half : step // 2 + half + 1]
-        acc = blocks[:, 0].astype(np.uint16)
-        for k in range(1, blocks.shape[1]):
-            np.add(acc, blocks[:, k], out=acc)
+        side = beams // 2
+        padded = np.zeros((rows.size, n_cols + 2 * side), dtype=np.float32)
+        acc = padded[:, side : side + n_cols]
+        for k in range(blocks.shape[1]):
+            cv2.accumulate(blocks[:, k], acc)
+        if side == 0:
+            out = acc
+        else:
+            padded[:, :side] = acc[:, :1]
+            padded[:, side + n_cols :] = acc[:, -1:]
+            out = np.asarray(cv2.add(padded[:, :n_cols], padded[:, 1 : 1 + n_cols]), dtype=np.float32)
+            for k in range(2, beams):
+                cv2.accumulate(padded[:, k : k + n_cols], out)
     else:
         acc = np.zeros((rows.size, n_cols), dtype=np.uint16 if wide else np.float32)
         for offset in range(-half, half + 1):
             np.add(acc, image[np.minimum(np.maximum(rows + offset, 0), n_rows - 1)], out=acc)
-    out = np.asarray(
-        cv2.boxFilter(acc, cv2.CV_32F, (beams, 1), normalize=False, borderType=cv2.BORDER_REPLICATE),
-        dtype=np.float32,
-    )
+        out = np.asarray(
+            cv2.boxFilter(acc, cv2.CV_32F, (beams, 1), normalize=False, borderType=cv2.BORDER_REPLICATE),
+            dtype=np.float32,
+        )
     out *= np.float32(1.0 / (samples * beams))
     return out
 
@@ -118,7 +129,8 @@ def percentile90(values: NDArray[np.float32]) -> float:
     k = int(pos)
     if k + 1 >= n:
         return float(np.max(values))
-    part = np.partition(values, (k, k + 1))
+    part = values.copy()
+    part.partition((k, k + 1))
     return float(part[k] + (pos - k) * (part[k + 1] - part[k]))
 
 
@@ -164,7 +176,10 @@ def row_background_of(
     # (SIMD) markedly faster than it partitions or sorts floats; the elements are the same.
     as_int = small.dtype == np.float32 and (bool(small.min() >= 0) if non_negative is None else non_negative)
     if as_int:
-        level = np.sort(small.view(np.int32), axis=1)[:, k].view(np.float32)
+        # (A copy sorted in place: ``np.sort`` without its Python wrapper.)
+        ordered = small.view(np.int32).copy()
+        ordered.sort(axis=1)
+        level = ordered[:, k].view(np.float32)
     else:
         level = np.partition(small, k, axis=1)[:, k].astype(np.float32)
     # Bright targets filling a quarter of a row raise its quartile; a wide running
@@ -185,13 +200,19 @@ def _running_median_int(level: NDArray[np.float32]) -> NDArray[np.float32]:
     of its call overhead.
     """
     half = BACKGROUND_MEDIAN_BLOCKS // 2
-    padded = np.concatenate((np.full(half, level[0]), level, np.full(half, level[-1]))).view(np.int32)
-    step = padded.strides[0]
-    # Window i starts at element i (a read-only view, no copy).
-    windows = np.lib.stride_tricks.as_strided(
-        padded, shape=(level.size, BACKGROUND_MEDIAN_BLOCKS), strides=(step, step), writeable=False
+    n = level.size
+    padded = np.empty(n + 2 * half, dtype=np.float32)
+    padded[:half] = level[0]
+    padded[half : half + n] = level
+    padded[half + n :] = level[-1]
+    # Window i starts at element i: a strided view, no copy (``np.ndarray`` over the buffer
+    # costs far less than ``as_strided``).
+    windows = np.ndarray(
+        (n, BACKGROUND_MEDIAN_BLOCKS), dtype=np.int32, buffer=padded, strides=(padded.itemsize, padded.itemsize)
     )
-    return np.sort(windows, axis=1)[:, half].view(np.float32)
+    ordered = windows.copy()
+    ordered.sort(axis=1)
+    return ordered[:, half].view(np.float32)
 
 
 @functools.lru_cache(maxsize=8)
@@ -208,7 +229,8 @@ def running_min_max(
     """Running minimum and maximum over ``size`` (odd) neighbours, edges replicated.
 
     The same as scipy's ``minimum_filter1d`` and ``maximum_filter1d`` with
-    ``mode="nearest"``, by OpenCV's erosion and dilation (far less call overhead).
+    ``mode="nearest"``, by OpenCV's erosion and dilation (far less call overhead), or
+    for 3 neighbours by numpy's pairwise minima and maxima (less still).
 
     Parameters
     ----------
@@ -218,8 +240,26 @@ def running_min_max(
     -------
     low, high : ndarray, shape (n,), float32
     """
+    if size == 3 and values.size >= 2:
+        # Three neighbours (the detection grid's usual case): the minimum of neighbouring
+        # pairs, then of neighbouring pairs of those, costs less than OpenCV's calls.
+        return _min_max_of_three(np.asarray(values, dtype=np.float32))
     row = np.ascontiguousarray(values, dtype=np.float32).reshape(1, -1)
     kernel = _row_kernel(size)
     low = cv2.erode(row, kernel, borderType=cv2.BORDER_REPLICATE)
     high = cv2.dilate(row, kernel, borderType=cv2.BORDER_REPLICATE)
     return low[0], high[0]
+
+
+def _min_max_of_three(values: NDArray[np.float32]) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """Running minimum and maximum over 3 neighbours, edges replicated, of at least 2 values."""
+    out = []
+    for pair in (np.minimum, np.maximum):
+        # pairs[i] = pair(values[i], values[i + 1]); element i takes pairs i - 1 and i.
+        pairs = pair(values[:-1], values[1:])
+        result = np.empty_like(values)
+        result[0] = pairs[0]
+        result[-1] = pairs[-1]
+        pair(pairs[:-1], pairs[1:], out=result[1:-1])
+        out.append(result)
+    return out[0], out[1]

@@ -151,3 +151,16 @@ def test_a_highlight_broken_in_two_is_one_target(rng: np.random.Generator) -> No
     m = measure_pair(seg, pair, range_m=frame.range_m, beam_azimuth_rad=frame.beam_azimuth_rad)
     assert m.usable and abs(m.azimuth_rad - truths[0].azimuth_rad) < np.radians(0.5)
     assert 0.5 * (m.r_end_m - m.r_top_m) / m.r_end_m == pytest.approx(box.height_m, abs=0.002)
+
+
+def test_pair_extents_are_the_regions_column_extents(rng: np.random.Generator) -> None:
+    # pair_regions builds the extents itself (one presence test for all labels): they must
+    # stay those of Segmentation.column_extents.
+    boxes = (Box(1.15, -0.03, 0.05, 0.05, 0.06), Box(1.3, 0.02, 0.05, 0.05, 0.04), Box(1.2, 0.3, 0.05, 0.04, 0.047))
+    _, seg, pairs, _ = _pairs(SynthConfig(boxes=boxes, tilt_deg=25.0), rng)
+    assert len(pairs) == 3
+    for pair in pairs:
+        for region, extents in ((pair.highlight, pair.highlight_extents), (pair.shadow, pair.shadow_extents)):
+            for got, want in zip(extents, seg.column_extents(region), strict=True):
+                assert got.dtype == want.dtype
+                np.testing.assert_array_equal(got, want)
