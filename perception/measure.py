@@ -250,6 +250,11 @@ def _mean(values: NDArray[np.float64]) -> float:
     return float(np.add.reduce(values) / values.size)
 
 
+#: numpy sums fewer values than this one after another from 0.0, as Python's ``sum`` does
+#: (pairwise summation starts at 8 values).
+_SEQUENTIAL_SUM_MAX = 7
+
+
 def _median_and_spread(values: list[float]) -> tuple[float, float]:
     """Median of a short list, and 1.4826 x its median absolute deviation (0 for a single value).
 
@@ -279,20 +284,22 @@ def measure_pairs(
     cfg = config or MeasureConfig()
     edges = find_edges(segmentation, pairs, cfg)
     n_all = edges.columns.size
+    n_rows = segmentation.levels.shape[0]
     # All pairs' edges to metres in one interpolation (starts, then ends), then plain
     # Python per pair.
-    metres = np.interp(edges.rows.ravel(), _rows_axis(segmentation.levels.shape[0]), range_m).tolist()
+    metres = np.interp(edges.rows.ravel(), _rows_axis(n_rows), range_m).tolist()
     azimuths = beam_azimuth_rad[edges.columns]
+    azimuth_list = azimuths.tolist()
     columns = edges.columns.tolist()
-    dr = float(range_m[-1] - range_m[0]) / (range_m.size - 1)
-    n_rows = segmentation.levels.shape[0]
+    quarter_sample_m = 0.25 * (float(range_m[-1] - range_m[0]) / (range_m.size - 1))
+    min_beams = cfg.min_beams
     out = []
     start = 0
     # Each pair's per-beam edges (m, and the azimuths of those beams) combined.
     for pair, count, far_cut in zip(pairs, edges.counts, edges.far_cut, strict=True):
         far_flag = ("band_far" if pair.shadow.row_stop < n_rows else "window_end") if far_cut else None
         truncated, reason = _truncation(pair.fov_flags, far_flag)
-        if count < cfg.min_beams:
+        if count < min_beams:
             out.append(_unmeasured(pair, truncated, reason, beam_azimuth_rad=beam_azimuth_rad, range_m=range_m))
             start += count
             continue
@@ -301,9 +308,14 @@ def measure_pairs(
         r_top, spread_top = _median_and_spread(top_m)
         r_end, spread_end = _median_and_spread(end_m)
         root_n = math.sqrt(count)
+        # The mean azimuth as _mean's: the same sum, in Python for a few beams.
+        if count <= _SEQUENTIAL_SUM_MAX:
+            azimuth = sum(azimuth_list[start:stop]) / count
+        else:
+            azimuth = float(np.add.reduce(azimuths[start:stop]) / count)
         out.append(_new_measurement(
-            azimuth_rad=_mean(azimuths[start:stop]), r_top_m=r_top, r_end_m=r_end,
-            sigma_r_m=max(1.2533 * max(spread_top, spread_end) / root_n, 0.25 * dr / root_n),
+            azimuth_rad=azimuth, r_top_m=r_top, r_end_m=r_end,
+            sigma_r_m=max(1.2533 * max(spread_top, spread_end) / root_n, quarter_sample_m / root_n),
             highlight_range_m=float(range_m[pair.highlight.row_start]), columns=tuple(columns[start:stop]),
             r_top_per_beam_m=tuple(top_m), r_end_per_beam_m=tuple(end_m), truncated=truncated, reason=reason,
             overlap=pair.overlap, shadow_width_beams=pair.shadow.n_cols,

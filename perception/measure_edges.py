@@ -6,14 +6,13 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from perception.measure_refine import clamp, cumsum0, refine_shadow_rows, take_neighbours
+from perception.measure_refine import clamp, cumsum0, neighbour_power, refine_shadow_rows
 from perception.pairing import Pair
 from perception.segmentation import Segmentation
 
@@ -34,9 +33,9 @@ def central_beams(columns: tuple[int, ...], fraction: float) -> list[int]:
     return cols[start : start + keep]
 
 
-@dataclass(frozen=True)
-class Edges:
-    """The edges found in the pairs' central beams, all pairs' beams in one array.
+class Edges(NamedTuple):
+    """The edges found in the pairs' central beams, all pairs' beams in one array
+    (a named tuple: built once per frame, cheaper than a frozen dataclass).
 
     ``columns`` lists the beams with both edges, grouped by pair in the pairs' order:
     ``counts[n]`` of them belong to pair ``n``; ``rows[0]`` and ``rows[1]`` hold their
@@ -112,6 +111,19 @@ def _bound_offsets(half: int, k_smooth: int, level_samples: int) -> NDArray[np.i
     return out[:, None]
 
 
+#: The least rows (eb, ea) of the echo before the far top edge (see :func:`_echo_offsets`).
+_ECHO_FIRST_ROWS = np.array([[1], [0]])
+_ECHO_FIRST_ROWS.flags.writeable = False
+
+
+@functools.lru_cache(maxsize=8)
+def _echo_offsets(k_smooth: int, level_samples: int) -> NDArray[np.intp]:
+    """What :func:`_edges_quiet` subtracts from the rough edge's row for the echo's rows (eb, ea), shape (2, 1)."""
+    out = np.array([[k_smooth], [k_smooth + level_samples]])
+    out.flags.writeable = False
+    return out
+
+
 def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> Edges:
     """:func:`find_edges` with numpy's divide and invalid warnings already off."""
     levels = segmentation.levels
@@ -181,22 +193,10 @@ def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: Measure
     if length < k_smooth + 2:
         return no_edges(_most(n_cut, n_beams, n_pairs))
     m = beams.size
-    k_beams = cfg.smooth_beams
-    first_beams = beams - k_beams // 2
-    first = (lo * n_cols + first_beams) + np.arange(0, length * n_cols, n_cols)[:, None]
-    if int(np.maximum.reduce(lo)) + length > n_rows:
-        # (rows past the image repeat its last row)
-        first = np.minimum(first, (n_rows - 1) * n_cols + first_beams)
-    taken = take_neighbours(levels, first, beams, k_beams // 2, beam_range=beam_range)
-    planes = segmentation.power_of(taken.reshape(k_beams, length * m)).reshape(k_beams, length, m)
-    # The neighbours added one after another, then scaled.
-    power = planes[0] + planes[1] if k_beams > 1 else planes[0]
-    for j in range(2, k_beams):
-        power += planes[j]
-    power *= 1.0 / k_beams
+    power = neighbour_power(segmentation, lo, beams, length, cfg.smooth_beams, beam_range=beam_range)
     cum = cumsum0(power)
     # (OpenCV's subtraction, the same differences, walks the strided sums faster)
-    p = cast(NDArray[np.float64], cv2.subtract(cum[k_smooth:], cum[:-k_smooth]))
+    p = cast("NDArray[np.float64]", cv2.subtract(cum[k_smooth:], cum[:-k_smooth]))
     p /= k_smooth
     n_p = p.shape[0]
     cum_p = cumsum0(p)
@@ -246,13 +246,14 @@ def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: Measure
     if core_min < n_near - 1:
         near &= np.arange(n_near - 1, -1, -1)[:, None] <= core
     rough, has_rough = _last_true(near, n_near, cols)
-    # The echo's rows ea .. eb - 1 (never past the rows of p: rough < n_p).
-    eb = rough - k_smooth
-    ea = np.maximum(eb - level_samples, 0)
-    eb = np.maximum(eb, 1)
-    echo_level = (cum_p[eb, cols] - cum_p[ea, cols]) / (eb - ea)
-    # The midpoints of the far top edge (echo and shadow) and of the end (shadow and seabed).
-    mid_top, mid_end = 0.5 * (np.array((echo_level, seabed_level)) + shadow_level)
+    # The echo's rows ea .. eb - 1 (never past the rows of p: rough < n_p), as a stack
+    # (eb, ea), and the midpoints of the far top edge (echo and shadow) and of the end
+    # (shadow and seabed).
+    echo_rows = np.maximum(rough - _echo_offsets(k_smooth, level_samples), _ECHO_FIRST_ROWS)
+    at = cum_p[echo_rows, cols]
+    echo_level = (at[0] - at[1]) / (echo_rows[0] - echo_rows[1])
+    mids = 0.5 * (np.array((echo_level, seabed_level)) + shadow_level)
+    mid_top = mids[0]
     n_top = min(max(core_max, 1), n_p)  # rows idx < core
     above = p[n_top - 1 :: -1] >= mid_top
     if core_min < n_top:
@@ -267,28 +268,30 @@ def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: Measure
     # before the search's start (rarely: the search starts inside the shadow) the rows
     # before each start are masked and the search is run again; at or past its stop,
     # the beam has no shadow end.
-    k_end, has_end = _first_true(p[c0:c1] >= mid_end, c0, cols)
+    k_end, has_end = _first_true(p[c0:c1] >= mids[1], c0, cols)
     if np.logical_or.reduce(has_end & (k_end < start)):
         idx_far = np.arange(c0, c1)[:, None]
-        k_end, has_end = _first_true((p[c0:c1] >= mid_end) & (idx_far >= start), c0, cols)
+        k_end, has_end = _first_true((p[c0:c1] >= mids[1]) & (idx_far >= start), c0, cols)
     has_end &= k_end < stop
     # The samples either side of both crossings, in one gather: k_top + 1 <= n_top is
     # past the rows of p only when n_top = n_p, and k_end >= c0 >= 1 (start >= 1 and
-    # n_p >= 3), so row k_end - 1 is inside p.
+    # n_p >= 3), so row k_end - 1 is inside p. Each crossing lies between sample a
+    # (at row k) and sample b (at row k + 1): the edge is k + (a - mid) / (a - b), the
+    # shadow end's as before_end + (mid - a) / (b - a) with both signs turned (the
+    # same value: IEEE subtraction and division are symmetric in sign).
     after_top = k_top + 1 if n_top < n_p else np.minimum(k_top + 1, n_p - 1)
-    before_end = k_end - 1
-    a_top, b_top, a_end, b_end = p[np.array((k_top, after_top, before_end, k_end)), cols]
-    top = k_top + (a_top - mid_top) / (a_top - b_top)
-    end = before_end + (mid_end - a_end) / (b_end - a_end)
+    k_rows = np.array((k_top, k_end - 1, after_top, k_end))
+    samples = p[k_rows, cols]
+    a, b = samples[:2], samples[2:]
+    edge_rows = k_rows[:2] + (a - mids) / (a - b)
     # Kept: beams with both edges, in order, between levels that make sense
     # (shadow < seabed, shadow < echo, ...; one comparison of two stacks).
     good = np.logical_and.reduce(
-        np.array((shadow_level, shadow_level, b_top, a_end, top))
-        < np.array((seabed_level, echo_level, mid_top, mid_end, end))
+        np.array((shadow_level, shadow_level, b[0], a[1], edge_rows[0]))
+        < np.array((seabed_level, echo_level, mid_top, mids[1], edge_rows[1]))
     )
-    for test in (has_rough, has_top, has_end, contrast):
-        good &= test
-    rows = np.array((top, end)) + off
+    good &= np.logical_and.reduce(np.array((has_rough, has_top, has_end, contrast)))
+    rows = edge_rows + off
     if np.logical_and.reduce(good):
         if counts is None:
             counts = np.bincount(owner, minlength=n_pairs).tolist()

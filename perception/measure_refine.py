@@ -3,7 +3,8 @@
 
 On a detection grid of step ``d`` a shadow's first and last rows in a beam are known to
 ``d`` rows; :func:`refine_shadow_rows` follows them to full resolution in the measured
-beams only. The helpers here keep the arithmetic of a plain numpy formulation exactly
+beams only. :func:`neighbour_power` gathers the edge search's block of beam-averaged
+linear power. The helpers here keep the arithmetic of a plain numpy formulation exactly
 (the same sums in the same order), only faster.
 """
 
@@ -41,7 +42,8 @@ def cumsum0(values: NDArray[np.float64]) -> NDArray[np.float64]:
     n, m = values.shape
     if m <= CV_MAX_CHANNELS:
         image = np.ascontiguousarray(values).reshape(n, 1, m)
-        return cast(NDArray[np.float64], cv2.integral(image, sdepth=cv2.CV_64F).reshape(n + 1, 2, m)[:, 1])
+        # (a string cast: subscripting NDArray at run time costs microseconds per call)
+        return cast("NDArray[np.float64]", cv2.integral(image, sdepth=cv2.CV_64F).reshape(n + 1, 2, m)[:, 1])
     out = np.empty((n + 1, m))
     out[0] = 0.0
     np.cumsum(values, axis=0, out=out[1:])
@@ -77,6 +79,48 @@ def take_neighbours(
             shift = clamp(beams - half_beams + j, 0, n_cols - 1) - (beams - half_beams)
             flat.take(first + shift, out=out[j], mode="clip")
     return out
+
+
+@functools.lru_cache(maxsize=16)
+def _row_starts(length: int, n_cols: int) -> NDArray[np.intp]:
+    """Flat offsets ``i * n_cols`` of rows 0 .. length - 1, shape (length, 1) (read-only)."""
+    out = np.arange(0, length * n_cols, n_cols).reshape(length, 1)
+    out.flags.writeable = False
+    return out
+
+
+def neighbour_power(
+    segmentation: Segmentation,
+    lo: NDArray[np.intp],
+    beams: NDArray[np.intp],
+    length: int,
+    k_beams: int,
+    *,
+    beam_range: tuple[int, int],
+) -> NDArray[np.float64]:
+    """Linear power of each beam averaged with its neighbours, in a window of rows per beam.
+
+    Returns shape (length, beams.size): ``out[i, c]`` is the mean linear power of row
+    ``lo[c] + i`` (rows past the image repeat its last row) over the ``k_beams`` beams
+    centred on ``beams[c]`` (beams past the image's edge repeat it), the beams' powers
+    added in turn (``((p0 + p1) + p2) * (1 / 3)`` for three: numpy's reduction over the
+    first axis adds plane after plane). ``beam_range`` holds the smallest and the
+    largest beam (or bounds of them).
+    """
+    levels = segmentation.levels
+    n_rows, n_cols = levels.shape
+    m = beams.size
+    half = k_beams // 2
+    first_beams = beams - half
+    first = (lo * n_cols + first_beams) + _row_starts(length, n_cols)
+    if int(np.maximum.reduce(lo)) + length > n_rows:
+        # (rows past the image repeat its last row)
+        first = np.minimum(first, (n_rows - 1) * n_cols + first_beams)
+    taken = take_neighbours(levels, first, beams, half, beam_range=beam_range)
+    planes = segmentation.power_of(taken.reshape(k_beams, length * m)).reshape(k_beams, length, m)
+    power = np.add.reduce(planes, axis=0)
+    power *= 1.0 / k_beams
+    return cast("NDArray[np.float64]", power)
 
 
 @functools.lru_cache(maxsize=16)
@@ -190,7 +234,7 @@ def refine_shadow_rows(
         # Every row's box sum in one product with a 0/1 matrix: sums of small integers
         # are exact in float64 whatever their order.
         weights = window_sums(rows.shape[0], k_s, k_b)
-        box = (weights @ cast(NDArray[np.float64], taken.reshape(weights.shape[1], 2 * n))).reshape(rows.shape)
+        box = (weights @ cast("NDArray[np.float64]", taken.reshape(weights.shape[1], 2 * n))).reshape(rows.shape)
     else:
         # The beams added one by one, then running sums down the rows from the start of
         # numpy's windows.

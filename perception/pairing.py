@@ -25,7 +25,6 @@ can report a truncated shadow with its reason instead of silently losing the tar
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
@@ -109,66 +108,65 @@ class Pair:
         return not self.fov_flags
 
 
-#: Masks the last row of a highlight: rows (below 2**30) pass unchanged, -1 (absent from a
-#: beam) becomes 2**30 - 1, far beyond any image's rows, so that no gap then lies in
-#: [-1, max_gap_samples]. (Within int32 should the rows come as int32.)
-_FAR_MASK = (1 << 30) - 1
-
 _Candidate = tuple[int, float, int, int, Region, Region, tuple[int, ...], int]
 
 
+def _box_rows(rows: NDArray[np.int64], regions: Iterable[Region]) -> dict[int, list[int]]:
+    """The row of each region in each column of its box (``rows`` by label, -1 where
+    absent), as plain Python lists by label."""
+    return {r.label: rows[r.label, r.col_start : r.col_stop].tolist() for r in regions}
+
+
 def _candidates(
-    segmentation: Segmentation, cfg: PairingConfig, highlight_present: NDArray[np.bool_]
+    segmentation: Segmentation, cfg: PairingConfig, shadow_first: dict[int, list[int]]
 ) -> list[_Candidate]:
     """Every (highlight, shadow) that may pair: (median gap, -ratio, the shadow's first row,
     the candidate's number, highlight, shadow, the beams where the shadow follows the
     highlight, the highlight's number of beams). The first four order the candidates for
     :func:`_share_beams` (the numbers, increasing, break the ties as found).
-    ``highlight_present`` says where each highlight label is, (n_labels, n_beams).
+    ``shadow_first`` holds each shadow's first rows in its box (:func:`_box_rows`).
     """
     highlights, shadows = segmentation.highlights, segmentation.shadows
-    # Every highlight against every shadow in every beam at once: (highlight, shadow, beam).
-    # (take: cheaper than fancy indexing with a list.)
-    t_last = segmentation.highlight_rows[1].take([t.label for t in highlights], axis=0)
-    s_first = segmentation.shadow_rows[0].take([s.label for s in shadows], axis=0)
-    # A highlight's last row pushed far past the image's rows where it is absent makes every
-    # gap there negative; so does an absent shadow's first row, -1 (Segmentation's rows are
-    # -1 where absent). One test on the gap then also checks that both are in the beam.
-    t_last = t_last & _FAR_MASK
-    # The shadow starts no more than max_gap_samples rows after the highlight's far end:
-    # 0 <= s_first - t_last <= max_gap + 1, one unsigned comparison (a negative difference
-    # wraps to a huge one). s_first >= t_last also puts the shadow's start at or after
-    # the highlight's near end (t_first <= t_last).
-    rise = np.subtract(s_first, t_last[:, None], dtype=np.int64)  # the gap + 1, (highlight, shadow, beam)
-    follows = rise.view(np.uint64) <= cfg.max_gap_samples + 1
-    n_beams = np.add.reduce(highlight_present, axis=1).tolist()  # by label
-    n_common = np.add.reduce(follows, axis=2).ravel().tolist()
-    # The beams and rises of all (highlight, shadow) in one go, in order of (highlight,
-    # shadow, beam): each (highlight, shadow) owns the next n_common entries.
-    # (The flat indices: np.nonzero on a 3-d array costs several times more.)
-    hits = follows.ravel().nonzero()[0]
-    beams = (hits % rise.shape[2]).tolist()
-    rises = rise.take(hits).tolist()
+    highlight_last = _box_rows(segmentation.highlight_rows[1], highlights)
+    # The shadow starts no more than max_gap_samples rows after the highlight's far end
+    # (0 <= rise <= max_gap + 1, rise = the gap + 1), which also puts the shadow's start at
+    # or after the highlight's near end. Plain Python over the regions' boxes: the boxes of
+    # most (highlight, shadow) do not meet, and the few dozen beams where they do cost less
+    # in a plain loop than numpy's calls over every (highlight, shadow, beam).
+    max_rise = cfg.max_gap_samples + 1
+    boxes = [(s, s.col_start, s.col_stop, shadow_first[s.label]) for s in shadows]
     n_s = len(shadows)
     candidates: list[_Candidate] = []
-    stop = 0
-    # The (highlight, shadow) with beams in common, in order (compress skips the others in C).
-    for k in itertools.compress(range(len(n_common)), n_common):
-        n = n_common[k]
-        start, stop = stop, stop + n
-        i, j = divmod(k, n_s)
-        t = highlights[i]
-        ratio = n / n_beams[t.label]
-        # A highlight merged from neighbours may fall short of overlap_min with each shadow
-        # until its other beams are paired: enough common beams keep it a candidate.
-        if ratio <= cfg.overlap_max and (ratio >= cfg.overlap_min or n >= MIN_RUN_BEAMS):
-            ordered = sorted(rises[start:stop])
-            # The median gap (rise - 1), truncated toward zero.
-            median_gap = int((ordered[(n - 1) // 2] + ordered[n // 2] - 2) / 2)
-            s = shadows[j]
-            candidates.append(
-                (median_gap, -ratio, s.row_start, k, t, s, tuple(beams[start:stop]), n_beams[t.label])
-            )
+    for i, t in enumerate(highlights):
+        t0, t1 = t.col_start, t.col_stop
+        t_last = highlight_last[t.label]
+        n_t = len(t_last) - t_last.count(-1)  # its beams
+        for j, (s, s0, s1, s_first) in enumerate(boxes):
+            lo = t0 if t0 > s0 else s0
+            hi = t1 if t1 < s1 else s1
+            if lo >= hi:  # the boxes do not meet
+                continue
+            beams = []
+            rises = []
+            for c in range(lo, hi):
+                far = t_last[c - t0]
+                # The highlight is in the beam; an absent shadow's first row (-1) makes the rise negative.
+                if far >= 0:
+                    rise = s_first[c - s0] - far
+                    if 0 <= rise <= max_rise:
+                        beams.append(c)
+                        rises.append(rise)
+            n = len(beams)
+            if not n:
+                continue
+            ratio = n / n_t
+            # A highlight merged from neighbours may fall short of overlap_min with each shadow
+            # until its other beams are paired: enough common beams keep it a candidate.
+            if ratio <= cfg.overlap_max and (ratio >= cfg.overlap_min or n >= MIN_RUN_BEAMS):
+                rises.sort()
+                # The median gap (rise - 1), truncated toward zero.
+                median_gap = int((rises[(n - 1) // 2] + rises[n // 2] - 2) / 2)
+                candidates.append((median_gap, -ratio, s.row_start, i * n_s + j, t, s, tuple(beams), n_t))
     return candidates
 
 
@@ -225,14 +223,11 @@ def _column_extents(
     their kind's ``rows`` (first and last rows by label) and of ``present_all`` (last row
     >= 0, computed once for every label instead of once per region)."""
     first_all, last_all = rows
-    return {
-        r.label: (
-            first_all[r.label, r.col_start : r.col_stop],
-            last_all[r.label, r.col_start : r.col_stop],
-            present_all[r.label, r.col_start : r.col_stop],
-        )
-        for r in regions
-    }
+    extents = {}
+    for r in regions:
+        box = (r.label, slice(r.col_start, r.col_stop))  # one index for the three views
+        extents[r.label] = (first_all[box], last_all[box], present_all[box])
+    return extents
 
 
 def _new_pair(**values: object) -> Pair:
@@ -262,15 +257,16 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
     cfg = config or PairingConfig()
     if not segmentation.highlights or not segmentation.shadows:
         return []
-    # Where each highlight is: counts its beams, and gives its column_extents.
-    highlight_present = segmentation.highlight_rows[1] >= 0
-    owner, accepted, shadow_of = _share_beams(_candidates(segmentation, cfg, highlight_present), cfg)
+    shadow_first = _box_rows(segmentation.shadow_rows[0], segmentation.shadows)
+    owner, accepted, shadow_of = _share_beams(_candidates(segmentation, cfg, shadow_first), cfg)
     if not shadow_of:
         return []
     n_rows, n_cols = segmentation.levels.shape
     band = BandEdges(segmentation)
     shadow_extents_of = _column_extents(segmentation.shadow_rows, segmentation.shadow_rows[1] >= 0, shadow_of.values())
-    highlight_extents = _column_extents(segmentation.highlight_rows, highlight_present, (t for t, _ in accepted))
+    highlight_extents = _column_extents(
+        segmentation.highlight_rows, segmentation.highlight_rows[1] >= 0, (t for t, _ in accepted)
+    )
     pairs: list[Pair] = []
     for label, received in owner.items():
         if not received:
@@ -278,6 +274,9 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
         s = shadow_of[label]
         shadow_extents = shadow_extents_of[label]
         s_at_edge = touches_edge(s, n_rows, n_cols)
+        # The shadow's box settles most shadows for band_flags' bounds: its rows lie in
+        # [row_start, row_stop - 1] (the same answer, without a look at its beams).
+        s_near_band = s.row_start <= band.max_start or s.row_stop - 1 >= band.min_stop
         if len(received) == 1:
             # Most shadows follow one highlight only: it holds every run.
             cols, sole = received[0]
@@ -286,7 +285,7 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
             by_beam = {c: index for columns, index in received for c in columns}
             cols, sole = tuple(sorted(by_beam)), None
         # The shadow's rows in the beams of its box, for plain Python to pick from.
-        first_box, last_box = shadow_extents[0].tolist(), shadow_extents[1].tolist()
+        first_box, last_box = shadow_first[label], shadow_extents[1].tolist()
         p, q = cols[0] - s.col_start, cols[-1] - s.col_start + 1
         if q - p == len(cols):  # beams side by side
             first, last = first_box[p:q], last_box[p:q]
@@ -304,7 +303,7 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
                 t, ratio = accepted[max(dict.fromkeys(run_holders), key=run_holders.count)]
             columns = cols[p0:p1]
             # fov_flags' order: the highlight's edges, the shadow's, then the band's.
-            flags = band_flags(columns, first[p0:p1], last[p0:p1], band)
+            flags = band_flags(columns, first[p0:p1], last[p0:p1], band) if s_near_band else []
             if s_at_edge or touches_edge(t, n_rows, n_cols):
                 flags = (
                     edge_flags(t, columns[0], columns[-1], n_rows=n_rows, n_cols=n_cols)

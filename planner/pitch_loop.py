@@ -228,7 +228,9 @@ class PitchLoopConfig:
         too, with their slack weighed this many times less (at least
         ``lead_weight_factor``), and where no tilt shows them together with the
         farther targets (in the zone or its lead band) they yield (``lead_weight_factor
-        * near_weight_factor``, below any farther target). So the loop keeps
+        * near_weight_factor``, below any farther target), as they do where following
+        them would take the window's far end out of the bare aperture while the search
+        band (``search_weight_factor``) is on. So the loop keeps
         following a target in toward 2 altitudes whenever that costs no shadow in the
         zone: what a fixed tilt cannot do. 0 turns the band off (such targets are
         dropped as ``"too_close"``).
@@ -1091,10 +1093,14 @@ def _select(state: PitchState, shadows: Sequence[TrackedShadow], cfg: PitchLoopC
     dropped += [DroppedShadow(shadows[i].target_id, TOO_MANY_TARGETS) for _, i in candidates[cfg.max_targets:]]
     firm = np.array([s.measured or s.height_m is not None for s in shadows])
     sides = None
+    watch = None
     if cfg.near_weight_factor > 0.0 and cfg.zone_fits_aperture:
         nearer = ok & (pred.geometry.top_along_m < cfg.zone_start_m(pred.altitude_m))
         sides = (ok & ~nearer, nearer)
-    _yield_in_conflicts(pred, [i for i, _ in served], core & ok, factor, cfg, firm, sides)
+        search = search_band_rad(pred, cfg)
+        if search is not None:  # the window's far end in the bare aperture, as tilts
+            watch = (search[0] - cfg.margin_rad + pred.pitch_rad, search[1] + cfg.margin_rad + pred.pitch_rad)
+    _yield_in_conflicts(pred, [i for i, _ in served], core & ok, factor, cfg, firm, sides, watch)
     _footprints_yield(low, low_shadow, up, factor, [i for i, _ in served])
     return served, dropped, low, up, factor, pred
 
@@ -1125,7 +1131,8 @@ def _held_from(bound: FloatArray, fraction: float) -> FloatArray:
 
 def _yield_in_conflicts(pred: HorizonPrediction, idx: list[int], core: NDArray[np.bool_], factor: FloatArray,
                         cfg: PitchLoopConfig, firm: NDArray[np.bool_],
-                        sides: tuple[NDArray[np.bool_], NDArray[np.bool_]] | None = None) -> None:
+                        sides: tuple[NDArray[np.bool_], NDArray[np.bool_]] | None = None,
+                        watch: tuple[FloatArray, FloatArray] | None = None) -> None:
     """Where no tilt shows several targets in range whole at once, the nearer ones yield.
 
     Per step, the targets within range proper are taken from the farthest to the nearest;
@@ -1146,8 +1153,12 @@ def _yield_in_conflicts(pred: HorizonPrediction, idx: list[int], core: NDArray[n
     one that misses them (here with the loop's margin, ``zone_margin_rad``, at both
     aperture edges) gets ``lead_weight_factor * near_weight_factor``, below any farther
     target's weight: the near band never takes the beam, or its margin, from the zone.
+    With ``watch`` (tilt bounds per step, shape ``(N + 1,)`` each: the search band widened
+    to the bare aperture) the farther side starts from it: a nearer target is also given
+    up where following it would take the window's far end out of the aperture, so that a
+    target entering the window, not tracked yet, is still seen (and then tracked).
     """
-    if len(idx) < 2:
+    if len(idx) < (1 if watch is not None else 2):
         return
     lo, hi = depression_interval_rad(pred.geometry, half_aperture_rad=cfg.elevation_aperture_rad / 2,
                                      include_base=False)
@@ -1157,12 +1168,15 @@ def _yield_in_conflicts(pred: HorizonPrediction, idx: list[int], core: NDArray[n
     bare = ((_held_from(lo, w), _held_from(hi, w), -1), (lo, hi, 0))
     along = pred.geometry.top_along_m
 
-    def misfits(order: list[int], k: int, ends: tuple = bare) -> set[int]:
+    def misfits(order: list[int], k: int, ends: tuple = bare, watched: bool = False) -> set[int]:
         """Targets of ``order`` (taken in turn) that miss the common interval of those
-        before them at both ends of step ``k``: a conflict only when there is one at both."""
+        before them (and of ``watch`` when ``watched``) at both ends of step ``k``: a
+        conflict only when there is one at both."""
         yielding: set[int] | None = None
         for lo_j, hi_j, shift in ends:
             common_lo, common_hi = -math.inf, math.inf
+            if watched and watch is not None:
+                common_lo, common_hi = float(watch[0][k + shift]), float(watch[1][k + shift])
             here: set[int] = set()
             for i in order:
                 new_lo, new_hi = max(common_lo, float(lo_j[i, k + shift])), min(common_hi, float(hi_j[i, k + shift]))
@@ -1189,7 +1203,7 @@ def _yield_in_conflicts(pred: HorizonPrediction, idx: list[int], core: NDArray[n
             nearer = sorted((i for i in idx if sides[1][i, k]), key=key)
             if nearer:
                 farther = sorted((i for i in idx if sides[0][i, k]), key=key)
-                for i in misfits(farther + nearer, k, with_margin) & set(nearer):
+                for i in misfits(farther + nearer, k, with_margin, watched=True) & set(nearer):
                     factor[i, k] = min(factor[i, k], near_yield)
 
 

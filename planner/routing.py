@@ -3,7 +3,10 @@
 The free region is a shapely (Multi)Polygon in plane coordinates ``(east_m, north_m)``;
 its rings (the grown outer boundary and the holes/keep-outs) are barriers that no
 transit segment may cross. Graph nodes are the corners of the free region shrunk by a
-margin, so paths bend at that distance from obstacle corners.
+margin, so paths bend at that distance from obstacle corners. Where a passage is
+narrower than twice the margin the shrunk region parts there; a transit the graph
+cannot make is then sought again with the nodes a quarter of the margin, and then 1 cm,
+from the boundary, before it is declared infeasible.
 """
 
 from __future__ import annotations
@@ -84,9 +87,8 @@ class Router:
     free: shapely.Geometry
     margin_m: float = 1.0
     _edges: FloatArray = field(init=False, repr=False)
-    _nodes: FloatArray | None = field(init=False, default=None, repr=False)
-    _dist: FloatArray | None = field(init=False, default=None, repr=False)
-    _pred: NDArray[np.int32] | None = field(init=False, default=None, repr=False)
+    _graphs: dict[float, tuple[FloatArray, FloatArray, NDArray[np.int32]]] = field(
+        init=False, default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         self._edges = _ring_edges(self.free)
@@ -103,9 +105,18 @@ class Router:
         ok &= shapely.intersects_xy(self.free, mid[:, 0], mid[:, 1])
         return np.asarray(ok)
 
-    def _build(self) -> None:
+    def _insets_m(self) -> tuple[float, ...]:
+        """The node insets tried in turn, m (see the module docstring)."""
+        return tuple(dict.fromkeys((self.margin_m, self.margin_m / 4, 0.01)))
+
+    def _graph(self, inset_m: float) -> tuple[FloatArray, FloatArray, NDArray[np.int32]]:
+        """Nodes (corners of the free region shrunk by ``inset_m``, or of the first inset
+        after it that leaves something), shortest distances and predecessors (cached)."""
+        if inset_m in self._graphs:
+            return self._graphs[inset_m]
         nodes = np.zeros((0, 2))
-        for m in (self.margin_m, self.margin_m / 4, 0.01):
+        insets = self._insets_m()
+        for m in insets[insets.index(inset_m):]:
             inner = self.free.buffer(-m, quad_segs=1, join_style="mitre", mitre_limit=2.0)
             if not inner.is_empty:
                 nodes = _ring_vertices(inner)
@@ -119,7 +130,8 @@ class Router:
         w[ii[vis], jj[vis]] = d[vis]
         w[jj[vis], ii[vis]] = d[vis]
         dist, pred = shortest_path(w, method="D", directed=False, return_predecessors=True)
-        self._nodes, self._dist, self._pred = nodes, dist, pred
+        self._graphs[inset_m] = (nodes, dist, pred)
+        return self._graphs[inset_m]
 
     def route(self, start: tuple[float, float], goal: tuple[float, float]) -> list[tuple[float, float]]:
         """Points from ``start`` to ``goal`` (both included) along free straight segments.
@@ -133,26 +145,24 @@ class Router:
         b = np.asarray([goal], dtype=float)
         if self._visible(a, b)[0]:
             return [_pt(start), _pt(goal)]
-        if self._nodes is None:
-            self._build()
-        if self._nodes is None or self._dist is None or self._pred is None:
-            raise RuntimeError("routing graph was not built")
-        nodes, n = self._nodes, len(self._nodes)
-        if n == 0:
-            raise InfeasibleError(f"no obstacle-free transit from {start} to {goal}")
-        vis_a = self._visible(np.repeat(a, n, axis=0), nodes)
-        vis_b = self._visible(nodes, np.repeat(b, n, axis=0))
-        da = np.where(vis_a, np.hypot(*(nodes - a).T), np.inf)
-        db = np.where(vis_b, np.hypot(*(nodes - b).T), np.inf)
-        total = da[:, None] + self._dist + db[None, :]
-        i, j = np.unravel_index(int(np.argmin(total)), total.shape)
-        if not np.isfinite(total[i, j]):
-            raise InfeasibleError(
-                f"no obstacle-free transit from ({start[0]:.1f}, {start[1]:.1f}) to "
-                f"({goal[0]:.1f}, {goal[1]:.1f}) m: they lie in separate parts of the free region"
-            )
-        chain = [int(j)]
-        while chain[-1] != i:
-            chain.append(int(self._pred[i, chain[-1]]))
-        chain.reverse()
-        return [_pt(start)] + [_pt(nodes[k]) for k in chain] + [_pt(goal)]
+        for inset in self._insets_m():
+            nodes, dist, pred = self._graph(inset)
+            n = len(nodes)
+            if n == 0:
+                continue
+            vis_a = self._visible(np.repeat(a, n, axis=0), nodes)
+            vis_b = self._visible(nodes, np.repeat(b, n, axis=0))
+            da = np.where(vis_a, np.hypot(*(nodes - a).T), np.inf)
+            db = np.where(vis_b, np.hypot(*(nodes - b).T), np.inf)
+            total = da[:, None] + dist + db[None, :]
+            i, j = np.unravel_index(int(np.argmin(total)), total.shape)
+            if np.isfinite(total[i, j]):
+                chain = [int(j)]
+                while chain[-1] != i:
+                    chain.append(int(pred[i, chain[-1]]))
+                chain.reverse()
+                return [_pt(start)] + [_pt(nodes[k]) for k in chain] + [_pt(goal)]
+        raise InfeasibleError(
+            f"no obstacle-free transit from ({start[0]:.1f}, {start[1]:.1f}) to "
+            f"({goal[0]:.1f}, {goal[1]:.1f}) m: they lie in separate parts of the free region"
+        )

@@ -818,3 +818,20 @@ def test_near_band_target_yields_to_a_far_target_the_prior_puts_past_the_window(
     margin = {m.target_id: min(m.far_margin_rad, m.near_margin_rad) for m in judged.margins}
     assert margin["near"] < 0.0  # the premise: they conflict
     assert margin["far"] >= 0.0
+
+
+def test_near_band_gives_way_to_the_watch_on_the_window_end() -> None:
+    """With the search band on (the dives' setting), a lone near-band target is followed
+    only as far as the window's far end stays in the bare aperture: an untracked target
+    entering the window there is still seen. Without the search band it is followed."""
+    base = _config(window_m=(0.7, 4.0), dt_s=0.2, height_prior_m=0.2, nominal_tilt_rad=math.radians(12.0),
+                   zone_lead_m=0.1)
+    near = TrackedShadow("near", 1.02, 0.0, 0.05, measured=True)
+    assert 1.0 < near.along_m < float(base.zone_start_m(0.5)) - base.zone_lead_m
+    state = PitchState(altitude_m=0.5, vehicle_pitch_rad=0.0, speed_m_s=0.0, current_tilt_rad=math.radians(12.0))
+    far_end_limit = math.asin(0.5 / 4.0) + base.elevation_aperture_rad / 2  # axis depression, bare aperture
+    followed = _settle(PitchLoop(base, LIMITS), state, [near], steps=15)
+    assert followed.margins[0].inside and followed.tilt_rad > far_end_limit
+    watching = _settle(PitchLoop(dataclasses.replace(base, search_weight_factor=0.1), LIMITS), state, [near],
+                       steps=15)
+    assert watching.tilt_rad <= far_end_limit + 1e-3

@@ -58,3 +58,22 @@ def test_routes_never_cross_the_obstacle(ax: float, ay: float, bx: float, by: fl
     assert not path.intersects(obstacle.buffer(-1e-6))
     assert shapely.box(-50, -50, 50, 50).buffer(1e-9).covers(path)
     assert path.length >= math.hypot(bx - ax, by - ay) - 1e-9
+
+
+def test_passage_narrower_than_twice_the_margin() -> None:
+    """Two rooms joined by a bent 1.2 m passage (the 1 m margin parts the shrunk region
+    there, and no straight hop sees through the bend): the transit goes through the
+    passage with the nodes nearer the walls, not refused."""
+    rooms = shapely.box(0, 0, 10, 10).union(shapely.box(20, 12, 30, 22))
+    passage = shapely.union_all([shapely.box(9, 4.4, 15.6, 5.6), shapely.box(14.4, 4.4, 15.6, 14),
+                                 shapely.box(14.4, 12.8, 21, 14)])
+    free = rooms.union(passage)
+    assert free.buffer(-1.0).geom_type == "MultiPolygon"  # the premise
+    router = Router(free, margin_m=1.0)
+    path = router.route((2.0, 9.0), (28.0, 20.0))
+    line = shapely.LineString(path)
+    assert free.buffer(1e-9).contains(line)
+    assert line.length < 45.0
+    # still refused where the region itself is in two parts (the passage closed)
+    with pytest.raises(InfeasibleError, match="separate parts"):
+        Router(rooms, margin_m=1.0).route((2.0, 9.0), (28.0, 20.0))
