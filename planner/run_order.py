@@ -28,12 +28,15 @@ class Piece:
 
 @dataclass(frozen=True)
 class Option:
-    """One way to fly a piece: its runs in flying order and the lane length (m) it
-    leaves unseen beyond what the better direction leaves."""
+    """One way to fly a piece: its runs in flying order, the lane length (m) it leaves
+    unseen beyond what the better direction leaves (negative: it sees that much more,
+    flying the piece both ways), and the lane length (m) it flies beyond one pass over
+    the piece."""
 
     piece: int
     runs: tuple[tuple[FloatArray, FloatArray], ...]  # (start_uv, end_uv) in flying order
     extra_loss_m: float
+    extra_run_m: float = 0.0
 
 
 #: Metres of transit that one metre of lane left unseen is worth when ordering runs.
@@ -92,7 +95,7 @@ def _order_cells(options: list[list[Option]], pieces: list[Piece],
         for o in options[i]:
             if o.extra_loss_m > 1e-6 and o.extra_loss_m > budget:
                 continue
-            cost = float(np.hypot(*(o.runs[0][0] - here))) + LOSS_PENALTY * o.extra_loss_m
+            cost = float(np.hypot(*(o.runs[0][0] - here))) + LOSS_PENALTY * o.extra_loss_m + o.extra_run_m
             if best is None or cost < best[0]:
                 best = (cost, o)
         if best is None:  # the better direction always loses nothing extra
@@ -110,7 +113,7 @@ def _order_cells(options: list[list[Option]], pieces: list[Piece],
         for i in seq:
             _, opt = pick(i, here)
             order.append(opt)
-            budget -= opt.extra_loss_m
+            budget -= max(opt.extra_loss_m, 0.0)
             here = opt.runs[-1][1]
     return order
 
@@ -124,6 +127,7 @@ def _order_greedy(options: list[list[Option]], start_uv: FloatArray | None,
     starts = np.array([o.runs[0][0] for _, o in flat])
     owner = np.array([i for i, _ in flat])
     loss = np.array([o.extra_loss_m for _, o in flat])
+    extra_run = np.array([o.extra_run_m for _, o in flat])
     free = loss <= 1e-6
     done = np.zeros(len(options), dtype=bool)
     if start_uv is None:
@@ -137,9 +141,9 @@ def _order_greedy(options: list[list[Option]], start_uv: FloatArray | None,
         i, opt = flat[j]
         order.append(opt)
         done[i] = True
-        budget -= opt.extra_loss_m
+        budget -= max(opt.extra_loss_m, 0.0)
         here = opt.runs[-1][1]
-        cost = np.hypot(*(starts - here).T) + LOSS_PENALTY * loss
+        cost = np.hypot(*(starts - here).T) + LOSS_PENALTY * loss + extra_run
         cost[done[owner] | (loss > budget + 1e-9)] = np.inf
         j = int(np.argmin(cost))
         if not np.isfinite(cost[j]):
@@ -157,7 +161,7 @@ def _order_cost(order: list[Option], start_uv: FloatArray | None, n_pieces: int)
     xy = np.array(pts)
     hops = np.hypot(*np.diff(xy, axis=0).T).sum()
     runs = sum(np.hypot(*(b - a)) for o in order for a, b in o.runs)
-    return float(hops - runs + LOSS_PENALTY * sum(o.extra_loss_m for o in order))
+    return float(hops - runs + sum(LOSS_PENALTY * o.extra_loss_m + o.extra_run_m for o in order))
 
 
 def order_runs(options: list[list[Option]], pieces: list[Piece], start_uv: FloatArray | None,

@@ -22,7 +22,10 @@ frame ``(u, v)`` with lanes along ``+u``):
    plain nearest-next order is also built and the shorter of the two kept. Each piece
    is flown in the direction of cheapest start (a direction that loses ground beyond the
    other costs ``planner.run_order.LOSS_PENALTY`` m of transit per m lost and is allowed only within
-   ``[survey] edge_loss_budget`` of the area), and every
+   ``[survey] edge_loss_budget`` of the area). Where both directions lose ground (a
+   piece between two obstacles, or between the edges when staying inside), the piece
+   may be flown there and back on its lane instead, when the ground won is worth the
+   extra run (``LOSS_PENALTY`` m per m won against the run's length), and every
    turn or transit between runs follows :class:`planner.routing.Router`, straight when
    free, else the shortest path around obstacles inside the free region.
 
@@ -155,6 +158,19 @@ def _options(pieces: list[Piece], free_iv: list[list[tuple[float, float]]],
         if bwd:
             opts.append(Option(i, tuple((np.array([hi, p.v]), np.array([lo, p.v]))
                                          for lo, hi in bwd), _extra_loss(best, cov_b)))
+        if fwd and bwd:
+            # Both ways (there and back on the lane): the ground each direction misses
+            # just past an obstacle (where its run starts) the other sees. Worth it where
+            # both directions lose ground, e.g. a piece between two obstacles.
+            seen = shapely.union_all([shapely.LineString([(lo + g_near, 0.0), (hi + g_near, 0.0)]) for lo, hi in fwd]
+                                     + [shapely.LineString([(lo - g_near, 0.0), (hi - g_near, 0.0)]) for lo, hi in bwd])
+            gain = seen.length - best
+            if gain > MIN_RUN_M:
+                f_runs = [(np.array([lo, p.v]), np.array([hi, p.v])) for lo, hi in fwd]
+                b_runs = [(np.array([hi, p.v]), np.array([lo, p.v])) for lo, hi in bwd]
+                # the better direction first; the way back is the extra run
+                runs, back_m = (f_runs + b_runs, cov_b) if cov_f >= cov_b else (b_runs + f_runs, cov_f)
+                opts.append(Option(i, tuple(runs), -gain, back_m))
         out.append(opts)
     return out
 

@@ -147,17 +147,45 @@ def test_stay_inside_keeps_every_path_inside(area: SurveyArea, heading_deg: floa
         return
     _check(area, plan, stay_inside=True)
     free = plan_survey(area, SETTINGS, choice=CHOICE, heading_rad=math.radians(heading_deg))
-    # Staying inside does not gain coverage, and what it loses is reported. Not to the
-    # last square centimetre: the two plans end their lanes differently, so a sliver at a
-    # sharp vertex (a few cm^2 of a 10^4 m^2 area, as hypothesis once found) may be seen
-    # by one and missed by the other.
+    # Staying inside does not gain coverage (unless it flies some pieces both ways, to see
+    # the ground its runs' starts at the edge miss), and what it loses is reported. Not to
+    # the last square centimetre: the two plans end their lanes differently, so a sliver
+    # at a sharp vertex (a few cm^2 of a 10^4 m^2 area, as hypothesis once found) may be
+    # seen by one and missed by the other.
     region_m2 = area.coverage_region.area
     sliver_m2 = 1e-5 * region_m2
     for inside, out in zip(plan.passes, free.passes, strict=True):
-        assert inside.uncovered_area_m2 >= out.uncovered_area_m2 - sliver_m2
-        assert inside.coverage_fraction <= out.coverage_fraction + sliver_m2 / region_m2
+        if not _flies_a_piece_both_ways(inside):
+            assert inside.uncovered_area_m2 >= out.uncovered_area_m2 - sliver_m2
+            assert inside.coverage_fraction <= out.coverage_fraction + sliver_m2 / region_m2
         assert inside.uncovered_area_m2 == pytest.approx((1.0 - inside.coverage_fraction) * region_m2,
                                                          abs=max(sliver_m2, 1e-6))
+
+
+def _flies_a_piece_both_ways(p: SurveyPass) -> bool:
+    """Whether two runs of the pass on one lane overlap, flown in opposite directions."""
+    for a in p.runs:
+        for b in p.runs:
+            if a.lane == b.lane and math.cos(a.heading_rad - b.heading_rad) < -0.99:
+                ends = [(a.start_east_m, a.start_north_m), (a.end_east_m, a.end_north_m)]
+                seg_b = shapely.LineString([(b.start_east_m, b.start_north_m), (b.end_east_m, b.end_north_m)])
+                if shapely.LineString(ends).buffer(0.01).intersection(seg_b).length > 0.1:
+                    return True
+    return False
+
+
+def test_piece_between_two_obstacles_is_flown_both_ways() -> None:
+    """Two holes one behind the other along the lanes, 15 m apart: a run starting at an
+    obstacle misses the ground just past it (its lead-in would be over the obstacle), in
+    either direction, so pieces between them are flown there and back; 100 % coverage
+    (hypothesis found 0.9898 before, with one direction per piece)."""
+    outer = shapely.Polygon([(60, 0), (13.906, 42.798), (-36.406, 26.450), (-30.338, -22.042), (13.906, -42.798)])
+    holes = [shapely.box(-0.745, -16.884, 9.255, -11.884), shapely.box(-1.948, 3.311, 10.052, 9.311)]
+    area = SurveyArea(43.0, 5.0, shapely.orient_polygons(shapely.Polygon(outer.exterior, [h.exterior for h in holes])))
+    plan = plan_survey(area, SETTINGS, choice=CHOICE, heading_rad=math.radians(1.0))
+    _check(area, plan, stay_inside=False)
+    assert all(p.coverage_fraction > 0.9999 for p in plan.passes)
+    assert any(_flies_a_piece_both_ways(p) for p in plan.passes)
 
 
 def test_rectangle_known_answer() -> None:
