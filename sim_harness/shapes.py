@@ -182,15 +182,8 @@ class CompositeSolid:
         o0, o1, o2, c = np.array(rows_).T[:, :, None]  # each (n_lobes, 1)
         a00, a01, a10, a11, s0, s1, s2 = self._lobe_table
         # (n_lobes, n_rays) arrays: the rays run along the contiguous axis
-        x, y, z = (np.ascontiguousarray(directions[:, i]) for i in range(3))
-        d0 = (x * a00 + y * a01) * s0
-        d1 = (x * a10 + y * a11) * s1
-        d2 = z * s2
-        a = (d0 * d0 + d2 * d2) + d1 * d1
-        b = 2.0 * ((d0 * o0 + d2 * o2) + d1 * o1)
-        disc = b * b - 4.0 * a * c
-        t = (-b - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * a)
-        t = np.where((disc >= 0) & (t > 0) & (c > 0), t, _NO_HIT)
+        x, y, z = _components(directions)
+        d0, d1, d2, t, _ = _scaled_sphere_hits(x, y, z, self._lobe_table, o0, o1, o2, c)
         if not normals:  # the nearest lobe's distance (the value argmin picks)
             return np.min(t, axis=0), np.zeros((0, 3))
         win = np.argmin(t, axis=0)
@@ -218,6 +211,27 @@ Solid = BoxSolid | CylinderSolid | EllipsoidSolid | CompositeSolid
 
 
 # ---------------------------------------------------------------------------- batches
+def _scaled_sphere_hits(x: FloatArray, y: FloatArray, z: FloatArray, axes_scale: Sequence[Any] | FloatArray,
+                        o0: Any, o1: Any, o2: Any, c: Any) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray,
+                                                              NDArray[np.bool_]]:
+    """Rays (components ``x, y, z``) against ellipsoids taken to the unit sphere: the ray
+    directions in the scaled frames ``d0, d1, d2``, the nearer root ``t`` of
+    ``|o + t d|^2 = 1`` (``_NO_HIT`` where it misses, lies behind, or the origin is inside)
+    and where it hits. ``axes_scale`` = (a00, a01, a10, a11, s0, s1, s2): the horizontal
+    axes' entries and the scales; ``o0, o1, o2`` the scaled origins and ``c = |o|^2 - 1``.
+    Scalars or arrays that broadcast with the rays (one arithmetic for every caller)."""
+    a00, a01, a10, a11, s0, s1, s2 = axes_scale
+    d0 = (x * a00 + y * a01) * s0
+    d1 = (x * a10 + y * a11) * s1
+    d2 = z * s2
+    a = (d0 * d0 + d2 * d2) + d1 * d1
+    b = 2.0 * ((d0 * o0 + d2 * o2) + d1 * o1)
+    disc = b * b - 4.0 * a * c
+    t = (-b - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * a)
+    ok = (disc >= 0) & (t > 0) & (c > 0)
+    return d0, d1, d2, np.where(ok, t, _NO_HIT), ok
+
+
 def _columns(table: list[list[float]], which: np.ndarray) -> list:
     """Per-ray parameters from a (n_solids, k) table: one scalar per column for a single
     solid (broadcast, no gathering), else one gathered array per column."""
@@ -325,15 +339,7 @@ def _ellipsoid_batch(solids: list[EllipsoidSolid], which: np.ndarray, origin: Fl
         rows.append([*o, float(o @ o) - 1.0, *axes[:2, :2].ravel(), *scale])
     o0, o1, o2, c, a00, a01, a10, a11, s0, s1, s2 = _columns(rows, which)
     x, y, z = _components(d)
-    d0 = (x * a00 + y * a01) * s0
-    d1 = (x * a10 + y * a11) * s1
-    d2 = z * s2
-    a = (d0 * d0 + d2 * d2) + d1 * d1
-    b = 2.0 * ((d0 * o0 + d2 * o2) + d1 * o1)
-    disc = b * b - 4.0 * a * c
-    t = (-b - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * a)
-    ok = (disc >= 0) & (t > 0) & (c > 0)
-    t = np.where(ok, t, _NO_HIT)
+    d0, d1, d2, t, ok = _scaled_sphere_hits(x, y, z, (a00, a01, a10, a11, s0, s1, s2), o0, o1, o2, c)
     if not normals:
         return t, np.zeros((0, 3))
     normal = np.zeros_like(d)
