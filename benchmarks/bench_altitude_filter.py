@@ -1,7 +1,7 @@
 """Altitude filter: dH precision across a 0.1 m step, consistency, speed; sonar altitude.
 
-The dive is the one of ``tests/perception/test_altitude_filter_consistency.py``
-(``tests.perception.altitude_dive``): descent 2 -> 4 m over 20 s, 12 s hold, 0.1 m step up
+The dive is the one of ``tests/perception/navigation/test_altitude_filter_consistency.py``
+(``tests.perception.navigation.altitude_dive``): descent 2 -> 4 m over 20 s, 12 s hold, 0.1 m step up
 over 8 s, 12 s hold, seabed at 10 m; depth 1 cm at 10 Hz, altimeter 2 cm at 5 Hz; the
 vehicle's uncommanded wander (white acceleration) and the seabed (random walk) drawn from
 the filter's process model; the filter is told when the descent and the step are
@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from perception.altitude_filter import AltitudeFilter, AltitudeFilterConfig
-from tests.perception.altitude_dive import chi2_interval, feed, in_maneuver, nees, simulate_dive
+from perception.navigation.altitude_filter import AltitudeFilter, AltitudeFilterConfig
+from tests.perception.navigation.altitude_dive import chi2_interval, feed, in_maneuver, nees, simulate_dive
 
 HOLD_PSD = 1e-5
 MANEUVER_PSD = 3e-4
@@ -113,9 +113,9 @@ def speed(window_s: float = 120.0) -> tuple[float, float, float]:
 def sonar_altitude_figures() -> list[tuple[float, float, float, float, float]]:
     """Renderer frames (sim_harness, ARIS 3000 defaults) over a flat seabed:
     (altitude, tilt deg, error mm, reported std mm, ms per frame)."""
-    from perception.seabed_start import sonar_altitude
-    from sim_harness.sonar import SonarConfig, SonarPose, SonarRenderer
-    from sim_harness.world import Seabed, World
+    from perception.navigation.seabed_start import sonar_altitude
+    from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
+    from sim_harness.world.world import Seabed, World
 
     renderer = SonarRenderer(World(Seabed(10.0)), SonarConfig())
     rows = []
@@ -177,7 +177,7 @@ def run(runs: int) -> str:
         f"| first dH query after an update, t1 60 s back (backward pass over 900 steps) | {first_ms:.1f} ms |",
         f"| further dH queries until the next update (gain-chain product) | {per_query_us / 1e3:.1f} ms |",
         "",
-        "Sonar altitude from the seabed onset (`perception.seabed_start.sonar_altitude`) on "
+        "Sonar altitude from the seabed onset (`perception.navigation.seabed_start.sonar_altitude`) on "
         "`sim_harness` renderer frames (ARIS 3000 defaults, 128 x 1000, flat seabed, 10 pings each):",
         "",
         "| altitude m | tilt deg | mean error | reported std | time per frame |",

@@ -1,8 +1,8 @@
 """ARIS (.aris) read throughput: open, sequential and random frame reads, write.
 
 Writes a synthetic ARIS Explorer 3000 recording (128 beams x 2000 samples, the product's
-sonar) into a temporary folder with :func:`perception.aris.write_aris`, then reads it with
-:class:`perception.aris.ArisRecording`. A sparse multi-GiB file shows that opening does not
+sonar) into a temporary folder with :func:`perception.sonar_io.aris.reader.write_aris`, then reads it with
+:class:`perception.sonar_io.aris.reader.ArisRecording`. A sparse multi-GiB file shows that opening does not
 depend on the file size. Run: ``python -m benchmarks.bench_aris_read [--frames N]``.
 """
 
@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.aris import ArisRecording, aris_grid, write_aris
-from perception.beams import aris3000_128
-from perception.frame import SonarFrame
+from perception.sonar_io.aris.reader import ArisRecording, aris_grid, write_aris
+from perception.sonar_io.beams import aris3000_128
+from perception.sonar_io.frame import SonarFrame
 
 N_BEAMS = 128
 N_SAMPLES = 2000

@@ -18,9 +18,9 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from perception.beams import aris3000_128
-from perception.fan import fan_geometry, frame_to_fan, polar_to_fan
-from perception.frame import SonarFrame
+from perception.mapping.fan import fan_geometry, frame_to_fan, polar_to_fan
+from perception.sonar_io.beams import aris3000_128
+from perception.sonar_io.frame import SonarFrame
 
 N_SAMPLES = 2000
 WINDOW_M = (1.0, 11.0)

@@ -31,18 +31,18 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.frame import SonarFrame
-from perception.heights import HeightPipeline, HeightsConfig, TargetHeight, detect_shadows
-from perception.npz import save_frame
-from perception.pairing import pair_regions
-from perception.segmentation import SegmentationConfig, mask_iou, segment
-from perception.solver import eq2_paper
-from sim_harness.scene import load_scene
-from sim_harness.seabed_texture import SeabedTexture
-from sim_harness.sonar import SonarConfig, SonarPose, SonarRenderer
-from sim_harness.truth import FrameTruth, Label, TargetTruth
-from sim_harness.viewpoint import choose_tilt_rad
-from sim_harness.world import Seabed, TargetSpec, World
+from perception.heights.pipeline import HeightPipeline, HeightsConfig, TargetHeight, detect_shadows
+from perception.heights.solver import eq2_paper
+from perception.shadows.pairing.pair import pair_regions
+from perception.shadows.segmentation.segment import SegmentationConfig, mask_iou, segment
+from perception.sonar_io.frame import SonarFrame
+from perception.sonar_io.npz import save_frame
+from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
+from sim_harness.sonar.scene import load_scene
+from sim_harness.sonar.truth import FrameTruth, Label, TargetTruth
+from sim_harness.sonar.viewpoint import choose_tilt_rad
+from sim_harness.world.texture import SeabedTexture
+from sim_harness.world.world import Seabed, TargetSpec, World
 
 TABLES = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "paper_tables.json"
 PAPER_ALTITUDES_M = (0.5, 0.6)

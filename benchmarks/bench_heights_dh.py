@@ -24,11 +24,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from benchmarks.bench_heights import PAPER_ALTITUDES_M, Shot, _config_for, match, random_scene, render_pair
-from perception.heights import HeightPipeline, HeightsConfig, TargetHeight
-from sim_harness.scene import load_scene
-from sim_harness.sonar import SonarConfig
-from sim_harness.truth import TargetTruth
-from sim_harness.world import Seabed, TargetSpec, World
+from perception.heights.pipeline import HeightPipeline, HeightsConfig, TargetHeight
+from sim_harness.sonar.renderer import SonarConfig
+from sim_harness.sonar.scene import load_scene
+from sim_harness.sonar.truth import TargetTruth
+from sim_harness.world.world import Seabed, TargetSpec, World
 
 BEFORE = HeightsConfig(seabed_onset_altitude=False, rounded_targets=False, edge_bias_samples=0.0)
 AFTER = HeightsConfig()

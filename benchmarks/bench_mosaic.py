@@ -17,11 +17,11 @@ import time
 import cv2
 import numpy as np
 
-from perception.beams import aris3000_128
-from perception.frame import SonarFrame
-from perception.mosaic import MosaicConfig
-from perception.mosaic_builder import MosaicBuilder
-from perception.registration import RegistrationConfig
+from perception.mapping.builder import MosaicBuilder
+from perception.mapping.mosaic import MosaicConfig
+from perception.mapping.registration import RegistrationConfig
+from perception.sonar_io.beams import aris3000_128
+from perception.sonar_io.frame import SonarFrame
 
 LANE_FRAMES = 150
 TEXTURE_CELL_M = 0.025

@@ -1,6 +1,6 @@
 """Pitch loop: whole-shadow-in-view rate against truth, MPC vs fixed tilt, and solve time.
 
-Closed-loop kinematic passes (:func:`planner.pitch_loop.simulate_pass`): altitude
+Closed-loop kinematic passes (:func:`planner.pitch.loop.simulate_pass`): altitude
 0.5-2.5 m, speed 0.5 m/s, targets 2-40 cm tall within 0.5 m of the lane, pitch
 disturbance 1.5-3 deg at 0.1-0.3 Hz, 10 frames/s, control every 0.5 s, mount 0-60 deg at
 20 deg/s, window 0.7-12 m, aperture 14 deg, fan 30 deg; noise: 1 cm range, 0.2 deg
@@ -28,7 +28,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from planner.pitch_loop import (
+from planner.pitch.loop import (
     FixedTilt,
     MountLimits,
     PitchCommand,

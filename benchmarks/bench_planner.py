@@ -18,12 +18,12 @@ from collections.abc import Callable
 
 import shapely
 
-from planner.altitudes import AltitudeChoice, choose_altitudes
-from planner.area import SurveyArea
 from planner.config import Settings, default_settings
-from planner.footprint import footprint
-from planner.mission_files import write_outputs
-from planner.survey import plan_survey
+from planner.survey.altitudes import AltitudeChoice, choose_altitudes
+from planner.survey.area import SurveyArea
+from planner.survey.footprint import footprint
+from planner.survey.lawnmower import plan_survey
+from planner.survey.mission_files import write_outputs
 
 SWATH_M = 5.0
 #: Bisection aims a hair above the swath so that 200 lanes span the kilometre.

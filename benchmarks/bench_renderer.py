@@ -17,11 +17,11 @@ from dataclasses import replace
 
 import cv2
 
-from sim_harness.scene import Scene, load_scene
-from sim_harness.seabed_texture import SeabedTexture
-from sim_harness.sonar import SonarConfig, SonarPose, SonarRenderer
-from sim_harness.viewpoint import scene_pose
-from sim_harness.world import Seabed, World
+from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
+from sim_harness.sonar.scene import Scene, load_scene
+from sim_harness.sonar.viewpoint import scene_pose
+from sim_harness.world.texture import SeabedTexture
+from sim_harness.world.world import Seabed, World
 
 
 def _measure(renderer: SonarRenderer, pose: SonarPose, frames: int) -> tuple[float, float, int]:

@@ -13,8 +13,8 @@ import socket
 import time
 from typing import Any
 
-from sim_harness.autopilot import Mode
-from sim_harness.vehicle_sim import VehicleConfig, VehicleSimulator
+from sim_harness.autopilot.autopilot import Mode
+from sim_harness.simulator import VehicleConfig, VehicleSimulator
 
 SIM_SECONDS = 120.0
 GCS_DRAIN_EVERY_STEPS = 10
@@ -24,8 +24,8 @@ def _run(render: bool) -> tuple[float, float, int, int]:
     renderer: Any = None
     world: Any = None
     if render:
-        from sim_harness.scene import load_scene
-        from sim_harness.sonar import SonarRenderer
+        from sim_harness.sonar.renderer import SonarRenderer
+        from sim_harness.sonar.scene import load_scene
 
         scene = load_scene("open-seabed")
         world = scene.world

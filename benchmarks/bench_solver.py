@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.solver import ShadowObservation, eq2_paper, solve_height, solve_height_batch
+from perception.heights.solver import ShadowObservation, eq2_paper, solve_height, solve_height_batch
 
 TABLES = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "paper_tables.json"
 SAMPLE_M = 5.0 / 2000

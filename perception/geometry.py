@@ -1,7 +1,7 @@
 """Sonar-to-seabed geometry: slant and ground range, ray depression, the insonified band.
 
 Frames and signs (the one place they are written down; see also
-:mod:`perception.frame`):
+:mod:`perception.sonar_io.frame`):
 
 - Local NED: x north, y east, z down. Depth positive down, altitude positive up from the
   seabed.

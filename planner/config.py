@@ -17,7 +17,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from perception.beams import TABLES, load_beam_table
+from perception.sonar_io.beams import TABLES, load_beam_table
 from planner.errors import ConfigError
 
 SETTINGS_VERSION = 1

@@ -22,26 +22,26 @@ from typing import Any
 import numpy as np
 
 from perception.geometry import rot_x, rot_y
-from perception.georef import LocalOrigin
-from planner.area import load_area
+from perception.mapping.georef import LocalOrigin
 from planner.config import Settings, load_settings
 from planner.errors import ConfigError
-from planner.executor import DiveResult, ExecutorConfig, MissionExecutor, TiltController
-from planner.height_score import score_heights
-from planner.mission_files import write_outputs
-from planner.onboard import OnboardConfig, OnboardPerception
-from planner.outputs import summary_document, write_products
-from planner.run_folder import RunFolder
-from planner.safety import SafetyLimits
-from planner.survey import plan_survey
-from planner.survey_plan import SurveyPlan
+from planner.mission.executor import DiveResult, ExecutorConfig, MissionExecutor, TiltController
+from planner.mission.onboard import OnboardConfig, OnboardPerception
+from planner.mission.products import summary_document, write_products
+from planner.mission.run_folder import RunFolder
+from planner.mission.safety import SafetyLimits
+from planner.report.height_score import score_heights
+from planner.survey.area import load_area
+from planner.survey.lawnmower import plan_survey
+from planner.survey.mission_files import write_outputs
+from planner.survey.plan import SurveyPlan
 from sim_harness.clock import SimClock
-from sim_harness.dynamics import AttitudeDisturbance, UniformCurrent
 from sim_harness.faults import FaultConfig, TimeWindow
-from sim_harness.scene import Scene, load_scene
-from sim_harness.sensors import SensorConfig
-from sim_harness.sonar import SonarConfig, SonarRenderer
-from sim_harness.vehicle_sim import VehicleConfig, VehicleSimulator
+from sim_harness.simulator import VehicleConfig, VehicleSimulator
+from sim_harness.sonar.renderer import SonarConfig, SonarRenderer
+from sim_harness.sonar.scene import Scene, load_scene
+from sim_harness.vehicle.dynamics import AttitudeDisturbance, UniformCurrent
+from sim_harness.vehicle.sensors import SensorConfig
 from vehicle_link.client import ArduSubClient
 from vehicle_link.config import DEFAULT_MESSAGE_INTERVALS_S, LinkConfig
 
@@ -231,8 +231,8 @@ def _executor_config(scenario: Scenario, settings: Settings) -> ExecutorConfig:
 
 def make_tilt_controller(plan: SurveyPlan, settings: Settings, *, closed_loop: bool) -> TiltController:
     """The pitch loop (closed on the sonar) or, for the comparison, the fixed tilt that
-    centres the same tracking zone (:class:`planner.pitch_control.ZoneCentredTilt`)."""
-    from planner.pitch_control import ShadowPitchLoop, ZoneCentredTilt  # the casadi MPC, built once
+    centres the same tracking zone (:class:`planner.pitch.control.ZoneCentredTilt`)."""
+    from planner.pitch.control import ShadowPitchLoop, ZoneCentredTilt  # the casadi MPC, built once
 
     if not closed_loop:
         return ZoneCentredTilt(plan, settings)
@@ -379,7 +379,7 @@ def shadow_visible_at_tilts(
 ) -> np.ndarray:
     """Truth side: for each tilt, is a target's whole shadow on insonified seabed?
 
-    The simulator's definition (``sim_harness.truth``, ``in_band``), evaluated at other
+    The simulator's definition (``sim_harness.sonar.truth``, ``in_band``), evaluated at other
     tilts: on every beam the target's shadow covers, the seabed at the shadow's start
     and end slant ranges lies inside the vertical aperture. A seabed point at slant ``r``
     on a beam of azimuth ``az`` has the elevation ``e`` (nearest the beam axis) with
@@ -431,7 +431,7 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
     The shadow-in-view ratio counts, over the frames of the survey passes, the targets
     *within range*: the whole shadow inside the range window, the target inside the fan
     (not on its first or last beam), its centre inside the *tracking zone* at that frame's
-    true altitude (:func:`planner.pitch_loop.tracking_zone_start_m`, the very function the
+    true altitude (:func:`planner.pitch.loop.tracking_zone_start_m`, the very function the
     pitch loop serves targets by, with the loop's own settings: at least
     ``min_ground_range_over_altitude`` altitudes ahead, and near enough to the window's
     end that one tilt holds every shadow in the zone with the loop's margins), and some
@@ -447,7 +447,7 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
     ``shadow_in_fov_ratio_all`` (tracking zone, neither exclusion). ``tracking_zone``
     gives the zone per pass at its planned altitude.
     """
-    from planner.pitch_control import DEFAULT_MOUNT, describe_zone, loop_config
+    from planner.pitch.control import DEFAULT_MOUNT, describe_zone, loop_config
 
     if mount is None:
         mount = DEFAULT_MOUNT  # the mount the executor commands
@@ -544,7 +544,7 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
         "tracking_zone": zone_doc,
         "shadow_in_fov_definition": (
             "whole shadow in window and fan, target centre inside the tracking zone at the frame's true altitude "
-            "(planner.pitch_loop.tracking_zone_start_m with the loop's settings: from max("
+            "(planner.pitch.loop.tracking_zone_start_m with the loop's settings: from max("
             f"{zone_config.min_ground_range_over_altitude} altitudes, the range at which the zone to the window's "
             "end spans the aperture less the loop's margin at both edges, for the tallest expected target) to the "
             f"window's end), {FOV_SETTLE_S} s settling excluded, some tilt within the mount's limits shows it "

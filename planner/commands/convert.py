@@ -11,8 +11,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from perception.npz import save_frames
-from perception.readers import open_recording
+from perception.sonar_io.npz import save_frames
+from perception.sonar_io.readers import open_recording
 from planner.errors import UsageError
 
 

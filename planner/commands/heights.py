@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from perception.frame import SonarFrame
-from perception.heights import HeightPipeline, TargetHeight
-from perception.readers import open_recording
+from perception.heights.pipeline import HeightPipeline, TargetHeight
+from perception.sonar_io.frame import SonarFrame
+from perception.sonar_io.readers import open_recording
 from planner.errors import UsageError
 
 #: Altitude changes closer than this count as one altitude, m.

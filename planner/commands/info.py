@@ -9,7 +9,7 @@ import math
 import sys
 from typing import Any
 
-from perception.readers import RecordingInfo, open_recording
+from perception.sonar_io.readers import RecordingInfo, open_recording
 
 #: Timestamps from here on (1990) are shown as UTC dates too (.aris stores Unix time).
 EPOCH_PLAUSIBLE_S = 631_152_000.0

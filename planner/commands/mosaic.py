@@ -20,17 +20,17 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from perception.frame import SonarFrame
-from perception.georef import LocalOrigin
-from perception.heights import HeightPipeline, HeightsConfig
-from perception.heights_layer import MappedTarget
-from perception.mosaic import MosaicConfig
-from perception.mosaic_builder import MosaicBuilder, masks_from_shadows
-from perception.mosaic_io import map_raster, write_geotiff, write_png_with_world_file, write_targets_geojson
-from perception.readers import open_recording
-from perception.registration import RegistrationConfig
+from perception.heights.pipeline import HeightPipeline, HeightsConfig
+from perception.mapping.builder import MosaicBuilder, masks_from_shadows
+from perception.mapping.georef import LocalOrigin
+from perception.mapping.heights_layer import MappedTarget
+from perception.mapping.mosaic import MosaicConfig
+from perception.mapping.products import map_raster, write_geotiff, write_png_with_world_file, write_targets_geojson
+from perception.mapping.registration import RegistrationConfig
+from perception.sonar_io.frame import SonarFrame
+from perception.sonar_io.readers import open_recording
 from planner.errors import UsageError
-from planner.mosaic_plot import render_map_png
+from planner.report.map_plot import render_map_png
 
 NAV_COLUMNS = ("t_s", "north_m", "east_m", "heading_deg", "altitude_m", "tilt_deg")
 

@@ -8,11 +8,11 @@ import math
 import sys
 from typing import Any
 
-from planner.area import load_area
 from planner.config import default_settings, load_settings
 from planner.errors import UsageError
-from planner.mission_files import summary_text, write_outputs
-from planner.survey import plan_survey
+from planner.survey.area import load_area
+from planner.survey.lawnmower import plan_survey
+from planner.survey.mission_files import summary_text, write_outputs
 
 
 def register(subparsers: Any) -> None:
@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
                           altitude_reference=settings.mission.altitude_reference,
                           acceptance_radius_m=settings.mission.acceptance_radius_m)
     if not args.no_plot:
-        from planner.plots import plot_plan  # matplotlib only when a plot is wanted
+        from planner.survey.plot import plot_plan  # matplotlib only when a plot is wanted
 
         png = paths["plan_json"].parent / "survey.png"
         plot_plan(plan, area, png)

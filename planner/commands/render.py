@@ -12,7 +12,7 @@ SCENE is a scene file (.toml/.json) or a built-in name (``paper-tank``, ``open-s
 One frame per (position, heading, altitude), positions from the scene's viewpoint unless
 ``--north-m/--east-m`` or ``--line`` give them; frames are stamped 1 / frame rate apart from
 t = 0. Without ``--tilt-deg`` the tilt is chosen per frame so that the targets in view
-and their shadows sit in the vertical beam (:func:`sim_harness.viewpoint.choose_tilt_rad`).
+and their shadows sit in the vertical beam (:func:`sim_harness.sonar.viewpoint.choose_tilt_rad`).
 Writes into DIR (default ``render-<scene>``):
 ``<scene>_<i>_alt<M>m.npz`` (frame-format.md, with ``altitude_m`` and ``sonar_depth_m``),
 ``<same>.truth.npz`` (label and owner images), ``<same>.png`` (preview: polar and fan side by
@@ -32,14 +32,14 @@ from typing import Any
 import cv2
 import numpy as np
 
-from perception.fan import frame_to_fan
-from perception.frame import SonarFrame
-from perception.npz import save_frame
+from perception.mapping.fan import frame_to_fan
+from perception.sonar_io.frame import SonarFrame
+from perception.sonar_io.npz import save_frame
 from planner.errors import UsageError
-from sim_harness.scene import builtin_scenes, load_scene
-from sim_harness.sonar import SonarConfig, SonarPose, SonarRenderer
-from sim_harness.truth import FrameTruth
-from sim_harness.viewpoint import scene_pose
+from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
+from sim_harness.sonar.scene import builtin_scenes, load_scene
+from sim_harness.sonar.truth import FrameTruth
+from sim_harness.sonar.viewpoint import scene_pose
 
 #: Height of the preview PNG, pixels (polar image left, fan image right).
 PREVIEW_HEIGHT_PX = 800
@@ -96,7 +96,7 @@ def _config(args: argparse.Namespace, scene_sonar: dict[str, float]) -> SonarCon
         changes["samples_per_beam"] = int(changes["samples_per_beam"])
     config = SonarConfig(**changes)
     if args.aris is not None:
-        from perception.aris import aris_grid
+        from perception.sonar_io.aris.reader import aris_grid
 
         _, _, grid = aris_grid(config.window_start_m, config.window_end_m,
                                config.samples_per_beam, config.sound_speed_m_s)
@@ -186,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
     }
     _atomic_write(out / "truth.json", json.dumps(document, indent=1).encode("utf-8"))
     if args.aris is not None:
-        from perception.aris import write_aris
+        from perception.sonar_io.aris.reader import write_aris
 
         write_aris(args.aris, frames, sound_speed_m_s=config.sound_speed_m_s)
         print(f"wrote {args.aris}")

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from planner.errors import UsageError
-from planner.report import DEFAULT_MATCH_RADIUS_M, generate_report
+from planner.report.markdown import DEFAULT_MATCH_RADIUS_M, generate_report
 
 
 def register(subparsers: Any) -> None:

@@ -2,7 +2,7 @@
 
 The same executor, MAVLink client and on-board perception as ``shadowsurvey sim``, on the
 wall clock, against the vehicle at ``--connect``. Sonar frames come from a sonar driver
-that drops ``.npz`` frames into ``--sonar-dir`` (see :mod:`planner.sonar_sources`);
+that drops ``.npz`` frames into ``--sonar-dir`` (see :mod:`planner.mission.sonar_sources`);
 without one the survey is flown and logged but no heights are measured. Arming needs an
 explicit confirmation: type ``ARM`` at the prompt, or pass ``--yes`` in scripts that have
 their own interlock.
@@ -16,18 +16,18 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from perception.georef import LocalOrigin
+from perception.mapping.georef import LocalOrigin
 from planner.config import default_settings, load_settings
 from planner.errors import UsageError
-from planner.executor import ExecutorConfig, FixedTilt, MissionExecutor
-from planner.onboard import OnboardConfig, OnboardPerception
-from planner.outputs import summary_document, write_products
-from planner.pitch_control import ShadowPitchLoop
-from planner.report import generate_report
-from planner.run_folder import RunFolder
-from planner.safety import SafetyLimits
-from planner.sonar_sources import DirectorySonarSource
-from planner.survey_plan import load_plan
+from planner.mission.executor import ExecutorConfig, FixedTilt, MissionExecutor
+from planner.mission.onboard import OnboardConfig, OnboardPerception
+from planner.mission.products import summary_document, write_products
+from planner.mission.run_folder import RunFolder
+from planner.mission.safety import SafetyLimits
+from planner.mission.sonar_sources import DirectorySonarSource
+from planner.pitch.control import ShadowPitchLoop
+from planner.report.markdown import generate_report
+from planner.survey.plan import load_plan
 from vehicle_link.client import ArduSubClient, LinkHealth
 from vehicle_link.clock import WallClock
 from vehicle_link.config import LinkConfig

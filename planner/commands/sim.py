@@ -18,7 +18,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-from planner.report import generate_report
+from planner.report.markdown import generate_report
 
 
 def register(subparsers: Any) -> None:

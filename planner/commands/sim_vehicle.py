@@ -12,10 +12,10 @@ import argparse
 import math
 import sys
 
-from sim_harness.autopilot import AutopilotConfig
+from sim_harness.autopilot.autopilot import AutopilotConfig
 from sim_harness.clock import SimClock
-from sim_harness.sensors import FlatSeabed, SeabedWorld
-from sim_harness.vehicle_sim import VehicleConfig, VehicleSimulator
+from sim_harness.simulator import VehicleConfig, VehicleSimulator
+from sim_harness.vehicle.sensors import FlatSeabed, SeabedWorld
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     world: SeabedWorld = FlatSeabed(args.seabed_depth_m)
     origin = (47.0, 8.0)
     if args.scene is not None:
-        from sim_harness.scene import load_scene  # the renderer's scenes, loaded on demand
+        from sim_harness.sonar.scene import load_scene  # the renderer's scenes, loaded on demand
 
         world = load_scene(args.scene).world
         scene_origin = (world.origin_lat_deg, world.origin_lon_deg)

@@ -7,7 +7,7 @@ import tomllib
 
 import pytest
 
-from perception.beams import load_beam_table
+from perception.sonar_io.beams import load_beam_table
 from planner.config import (
     default_settings,
     default_settings_text,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from sim_harness.clock import SimClock
-from sim_harness.vehicle_sim import VehicleSimulator
+from sim_harness.simulator import VehicleSimulator
 from vehicle_link.client import ArduSubClient
 from vehicle_link.config import LinkConfig
 from vehicle_link.errors import CommandTimeout

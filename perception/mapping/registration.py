@@ -1,0 +1,414 @@
+"""Navigation-drift correction by phase correlation of projected frames on the mosaic.
+
+Where a new frame overlaps what the mosaic already holds, the frame's projection (the
+newest ``stack_frames`` pings averaged, to beat their speckle down) and the mosaic are
+correlated in the Fourier domain: phase correlation as Hurtos et al. did for
+forward-looking sonar, with the spectrum only partly whitened (``whitening``), since at
+fine scales a sonar image is mostly speckle. Only cells that show the seabed itself take
+part: raised targets' echoes and shadows move with the view (layover) and would pull the
+frame by up to ``2 H h / g``. They are left out twice over: the cells the height
+pipeline's masks mark (:attr:`~perception.mapping.mosaic.ProjectedFrame.reliable`; the reference
+mosaic holds only such cells), and any deep dark patch (a shadow, ``outlier_sigmas``) with
+``outlier_margin_m`` around it, which takes its target's echo along.
+
+The navigation is the prior, and a correction must earn its acceptance:
+
+1. the overlap is large enough and the correlation peak strong (``min_response``);
+2. the shift is within one step's plausible drift (``max_shift_m``);
+3. the correlation is real, not a speckle peak: the normalised cross-correlation of the
+   band-passed overlaps at the shift reaches ``min_ncc``, and beats the unshifted
+   (navigation's) alignment by ``min_ncc_gain`` when the shift exceeds ``2`` cells;
+4. the match is spread over the overlap, not one object's: its two halves, registered
+   alone, agree within ``half_agreement_m``;
+5. the drift it implies stays within what the navigation makes plausible after the
+   distance travelled: ``drift_floor_m + drift_per_m * distance`` (checked by
+   :class:`DriftEstimator`).
+
+Accepted shifts update a running estimate of the drift, applied to every later frame: a
+Kalman filter per axis whose drift is a random walk in the distance travelled
+(``drift_walk_m`` per square-root metre) and whose measurements have a standard deviation
+of ``measurement_std_m``; so the first match after a long stretch is taken almost whole,
+and later ones are averaged. The estimate is RELATIVE to what the mosaic held:
+registration puts a later pass back onto the earlier one, so the map's absolute error is
+the drift of the pass that first mapped a place.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+
+from perception.mapping.mosaic import ProjectedFrame, TiledMosaic
+
+
+@dataclass(frozen=True)
+class RegistrationConfig:
+    """Acceptance test and drift filter of the correction.
+
+    Attributes
+    ----------
+    min_response : float
+        Smallest correlation peak accepted, as :func:`_correlate` scores it (about 1 for
+        identical images, about 0 for unrelated ones).
+    min_overlap_fraction : float
+        Smallest fraction of the frame's footprint already covered by the mosaic.
+    max_shift_m : float
+        Largest correction accepted in one step, m (the prior on the drift rate).
+    initial_drift_std_m : float
+        1-sigma of the drift where the mosaic begins, m.
+    drift_walk_m : float
+        Growth of the drift's 1-sigma per square-root metre travelled, m / sqrt(m).
+    measurement_std_m : float
+        1-sigma of one accepted registration, m.
+    min_weight : float
+        Mosaic cells with less accumulated weight count as uncovered.
+    every_n_frames : int
+        Register one frame in this many (drift grows slowly; the others take the
+        current estimate).
+    whitening : float
+        0..1: how far the correlation whitens the spectrum (1 = classic phase correlation,
+        0 = plain cross-correlation); see :func:`_correlate`.
+    stack_frames : int
+        The frame registered is the weighted mean of the newest this-many frames (they
+        share the drift; stacking averages their speckle down by ``sqrt(stack_frames)``).
+    reference_lag_frames : int
+        Frames are registered against the mosaic of the frames at least this many frames
+        older, so that a lane's newest frames, which share its drift, do not hide it.
+    texture_scale_m : float
+        Scale of the seabed texture correlated; structure much larger than this (the
+        footprint's outline, range-dependent gain) is filtered out first.
+    min_ncc : float
+        Smallest normalised cross-correlation (-1..1) of the band-passed overlaps at the
+        measured shift.
+    min_ncc_gain : float
+        How much the shift must raise that correlation over the navigation's alignment
+        (zero shift) when it moves the frame by more than 2 cells.
+    outlier_sigmas, outlier_margin_m : float
+        Cells whose band-passed value, smoothed over 2 cells, lies more than
+        ``outlier_sigmas`` robust standard deviations (of the new frame's) below the
+        median -- shadows -- and ``outlier_margin_m`` around them (their targets' echoes)
+        are left out of the correlation (``outlier_sigmas`` 0: none), so that the seabed's
+        texture, not objects placed by layover, carries the match. Bright low features
+        (shells, stones, with no shadow) stay: their layover is small.
+    half_agreement_m : float
+        The overlap is split in two halves, each registered alone: their shifts must agree
+        within this, m (0 turns the test off). One raised target's echo, displaced by its
+        layover, can dominate a correlation on an otherwise featureless seabed; it cannot
+        move both halves.
+    drift_floor_m, drift_per_m : float
+        The navigation's prior: the total drift may reach ``drift_floor_m + drift_per_m *
+        distance travelled`` (m; m per m); a correction implying more is refused.
+    """
+
+    min_response: float = 0.08
+    min_overlap_fraction: float = 0.3
+    max_shift_m: float = 0.15
+    initial_drift_std_m: float = 0.02
+    drift_walk_m: float = 0.01
+    measurement_std_m: float = 0.015
+    min_weight: float = 0.5
+    texture_scale_m: float = 0.02
+    reference_lag_frames: int = 30
+    every_n_frames: int = 3
+    stack_frames: int = 8
+    whitening: float = 0.5
+    min_ncc: float = 0.2
+    min_ncc_gain: float = 0.05
+    half_agreement_m: float = 0.03
+    outlier_sigmas: float = 3.5
+    outlier_margin_m: float = 0.1
+    drift_floor_m: float = 0.05
+    drift_per_m: float = 0.02
+
+    def __post_init__(self) -> None:
+        for name in ("initial_drift_std_m", "drift_walk_m", "measurement_std_m"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
+        if self.measurement_std_m <= 0:
+            raise ValueError(f"measurement_std_m must be > 0, got {self.measurement_std_m!r}")
+        if self.every_n_frames < 1 or self.reference_lag_frames < 0:
+            raise ValueError("every_n_frames must be >= 1 and reference_lag_frames >= 0")
+        if not 1 <= self.stack_frames <= max(1, self.reference_lag_frames):
+            raise ValueError(f"stack_frames must be in 1..max(1, reference_lag_frames), got {self.stack_frames!r}")
+        if self.max_shift_m <= 0:
+            raise ValueError(f"max_shift_m must be > 0, got {self.max_shift_m!r}")
+        if not 0 <= self.whitening <= 1:
+            raise ValueError(f"whitening must be in [0, 1], got {self.whitening!r}")
+        if self.outlier_sigmas < 0 or self.outlier_margin_m < 0 or self.half_agreement_m < 0:
+            raise ValueError("outlier_sigmas, outlier_margin_m and half_agreement_m must be >= 0")
+        if not -1 <= self.min_ncc <= 1 or self.min_ncc_gain < 0:
+            raise ValueError(f"min_ncc must be in [-1, 1] and min_ncc_gain >= 0, got "
+                             f"{self.min_ncc!r}, {self.min_ncc_gain!r}")
+        if self.drift_floor_m < 0 or self.drift_per_m < 0:
+            raise ValueError(f"drift_floor_m and drift_per_m must be >= 0, got "
+                             f"{self.drift_floor_m!r}, {self.drift_per_m!r}")
+
+
+@dataclass(frozen=True)
+class RegistrationResult:
+    """One correlation attempt: the measured shift (north, east) in m and whether it was taken.
+
+    ``ncc``/``ncc_zero``: normalised cross-correlation of the band-passed overlaps at the
+    measured shift and at zero shift (NaN when not computed).
+    """
+
+    accepted: bool
+    shift_north_m: float
+    shift_east_m: float
+    response: float
+    overlap_fraction: float
+    reason: str
+    ncc: float = math.nan
+    ncc_zero: float = math.nan
+
+    def refused(self, reason: str) -> RegistrationResult:
+        """The same measurement, not accepted, for ``reason``."""
+        return replace(self, accepted=False, reason=reason)
+
+
+def _high_pass(image: np.ndarray, mask: np.ndarray, sigma_cells: float) -> np.ndarray:
+    """``image`` minus its local mean inside ``mask`` (normalised convolution), 0 outside."""
+    m = mask.astype(np.float32)
+    local = cv2.GaussianBlur(image * m, (0, 0), sigma_cells)
+    norm = cv2.GaussianBlur(m, (0, 0), sigma_cells)
+    out = np.zeros_like(image)
+    np.divide(local, norm, out=out, where=norm > 1e-3)
+    return (image - out) * m
+
+
+def _robust_spread(image: np.ndarray, mask: np.ndarray) -> float:
+    """1.4826 x the median absolute deviation of the ``mask`` cells of ``image``."""
+    values = image[mask]
+    if values.size == 0:
+        return 0.0
+    return 1.4826 * float(np.median(np.abs(values - np.median(values))))
+
+
+def _outliers(image: np.ndarray, mask: np.ndarray, sigmas: float, spread: float) -> np.ndarray:
+    """Cells of ``mask`` darker than their median by ``sigmas * spread``, bool.
+
+    The image is smoothed over 2 cells first, so single dark speckle cells do not count;
+    a shadow, many cells long, does.
+    """
+    smooth = cv2.GaussianBlur(image, (0, 0), 2.0)
+    values = smooth[mask]
+    if values.size == 0 or spread <= 0:
+        return np.zeros(image.shape, dtype=bool)
+    return mask & (smooth < float(np.median(values)) - sigmas * spread)
+
+
+def _correlate(
+    a: np.ndarray, b: np.ndarray, *, max_shift_cells: int, whitening: float
+) -> tuple[tuple[float, float], float]:
+    """Generalised phase correlation of two equal-shape float32 images.
+
+    The cross-power spectrum ``A* B`` is divided by ``|A* B| ** whitening`` (1: phase
+    correlation, every frequency weighted alike; 0: plain cross-correlation, frequencies
+    weighted by their power, robust where fine detail is mostly speckle). The peak is
+    sought within ``max_shift_cells`` of zero shift and refined to sub-cell by a parabola
+    through its neighbours along each axis.
+
+    Returns
+    -------
+    ((dx, dy), response)
+        Shift of ``b`` relative to ``a`` in cells (columns, rows), and the peak's height
+        over the surface's RMS divided by ``sqrt(number of cells)`` (about 1 for two
+        identical images, about 0 for unrelated ones).
+    """
+    fa = np.fft.rfft2(a)
+    fb = np.fft.rfft2(b)
+    cross = np.conj(fa) * fb
+    if whitening > 0:
+        cross /= np.maximum(np.abs(cross), 1e-12) ** whitening
+    surface = np.fft.irfft2(cross, s=a.shape)
+    m = max_shift_cells
+    # shifts -m..m along each axis, wrapped: rows [-m:] then [:m+1]
+    rows = np.r_[np.arange(-m, 0) % a.shape[0], np.arange(0, m + 1)]
+    cols = np.r_[np.arange(-m, 0) % a.shape[1], np.arange(0, m + 1)]
+    local = surface[np.ix_(rows, cols)]
+    i, j = np.unravel_index(int(np.argmax(local)), local.shape)
+
+    def vertex(lo: float, mid: float, hi: float) -> float:
+        den = lo - 2.0 * mid + hi
+        return 0.0 if den >= 0 else float(np.clip(0.5 * (lo - hi) / den, -0.5, 0.5))
+
+    di = vertex(local[i - 1, j], local[i, j], local[i + 1, j]) if 0 < i < local.shape[0] - 1 else 0.0
+    dj = vertex(local[i, j - 1], local[i, j], local[i, j + 1]) if 0 < j < local.shape[1] - 1 else 0.0
+    rms = float(np.sqrt(np.mean(surface * surface)))
+    response = float(local[i, j]) / (rms * math.sqrt(surface.size)) if rms > 0 else 0.0
+    return (float(j - m) + dj, float(i - m) + di), response
+
+
+def _ncc(a: np.ndarray, b: np.ndarray) -> float:
+    """Normalised cross-correlation of two zero-mean-ish arrays of one shape."""
+    den = math.sqrt(float(np.vdot(a, a)) * float(np.vdot(b, b)))
+    return float(np.vdot(a, b)) / den if den > 0 else 0.0
+
+
+def measure_shift(
+    projected: ProjectedFrame, mosaic: TiledMosaic, *, config: RegistrationConfig
+) -> RegistrationResult:
+    """Shift that moves ``projected`` onto what ``mosaic`` holds, with the acceptance test.
+
+    Parameters
+    ----------
+    projected : ProjectedFrame
+        The new frame on the grid; only its :attr:`~ProjectedFrame.reliable` cells are used.
+    mosaic : TiledMosaic
+        The reference (hold only seabed cells in it: see :class:`MosaicBuilder`).
+    config : RegistrationConfig
+
+    Returns
+    -------
+    RegistrationResult
+        The shift (north, east, m) that must be ADDED to the frame's position to align it,
+        and whether tests 1-4 of the module docstring accept it.
+    """
+    res = mosaic.config.resolution_m
+    n_rows, n_cols = projected.shape
+    ref, ref_w = mosaic.window(projected.row0, projected.col0, n_rows, n_cols)
+    frame_cov = projected.reliable
+    both = frame_cov & (ref_w >= config.min_weight)
+    footprint = int(np.count_nonzero(projected.weight > 0))
+    overlap = float(np.count_nonzero(both)) / footprint if footprint else 0.0
+    if overlap < config.min_overlap_fraction:
+        return RegistrationResult(False, 0.0, 0.0, 0.0, overlap, "overlap too small")
+    # Compare only where both hold data, band-passed so that the seabed's texture and not
+    # the outline of the footprint drives the peak; the overlap is apodised (eroded, then
+    # blurred) because a sharp common outline would pull the peak towards zero shift.
+    margin = max(3, int(round(config.max_shift_m / res)))
+    kernel = np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)
+    core = cv2.erode(both.astype(np.uint8), kernel)
+    if not np.any(core):
+        return RegistrationResult(False, 0.0, 0.0, 0.0, overlap, "overlap too thin")
+    sigma_hp = 4.0 * max(1.0, config.texture_scale_m / res)
+    a = _high_pass(np.where(both, projected.intensity, 0).astype(np.float32), both, sigma_hp)
+    b = _high_pass(np.where(both, ref, 0).astype(np.float32), both, sigma_hp)
+    if config.outlier_sigmas > 0:
+        # Strong isolated echoes and deep shadows are objects, not seabed texture: their
+        # place depends on the view (layover), so they and a margin around them go.
+        # One scale for both, the new frame's (speckle-dominated) spread: the reference,
+        # averaged over many pings, is much smoother, and a bright marker's halo in it
+        # would count as dark by its own spread.
+        scale = _robust_spread(cv2.GaussianBlur(a, (0, 0), 2.0), both)
+        odd = _outliers(a, both, config.outlier_sigmas, scale) | _outliers(b, both, config.outlier_sigmas, scale)
+        if np.any(odd):
+            grow = max(1, int(round(config.outlier_margin_m / res)))
+            odd = cv2.dilate(odd.astype(np.uint8), np.ones((2 * grow + 1, 2 * grow + 1), np.uint8)) > 0
+            both &= ~odd
+            core = cv2.erode(both.astype(np.uint8), kernel)
+            if np.count_nonzero(both) < config.min_overlap_fraction * footprint or not np.any(core):
+                return RegistrationResult(False, 0.0, 0.0, 0.0, overlap, "overlap is mostly objects")
+            a = _high_pass(np.where(both, projected.intensity, 0).astype(np.float32), both, sigma_hp)
+            b = _high_pass(np.where(both, ref, 0).astype(np.float32), both, sigma_hp)
+    apod = cv2.GaussianBlur(core.astype(np.float32), (0, 0), margin / 2.0)
+    a *= apod
+    b *= apod
+    rows = cv2.getOptimalDFTSize(n_rows + margin)
+    cols = cv2.getOptimalDFTSize(n_cols + margin)
+    a = cv2.copyMakeBorder(a, 0, rows - n_rows, 0, cols - n_cols, cv2.BORDER_CONSTANT, value=0)
+    b = cv2.copyMakeBorder(b, 0, rows - n_rows, 0, cols - n_cols, cv2.BORDER_CONSTANT, value=0)
+    (dx, dy), response = _correlate(a, b, max_shift_cells=margin, whitening=config.whitening)
+    # the shift of b relative to a: b(x) = a(x - d). The frame content sits at ``a``;
+    # moving it by +d aligns it with the mosaic.
+    shift_north = float(dy) * res
+    shift_east = float(dx) * res
+    magnitude = math.hypot(shift_north, shift_east)
+    measured = RegistrationResult(False, shift_north, shift_east, float(response), overlap, "")
+    if response < config.min_response:
+        return measured.refused("weak correlation")
+    if magnitude > config.max_shift_m:
+        return measured.refused("shift beyond prior")
+    moved = cv2.warpAffine(a, np.array([[1.0, 0.0, dx], [0.0, 1.0, dy]], dtype=np.float64), (cols, rows),
+                           flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    measured = replace(measured, ncc=_ncc(moved, b), ncc_zero=_ncc(a, b))
+    if measured.ncc < config.min_ncc:
+        return measured.refused("no seabed match")
+    if math.hypot(dx, dy) > 2.0 and measured.ncc < measured.ncc_zero + config.min_ncc_gain:
+        return measured.refused("no better than the navigation")
+    if config.half_agreement_m > 0:
+        half_shifts = []
+        for half in _halves(core):
+            window = cv2.GaussianBlur(half.astype(np.float32), (0, 0), margin / 2.0)
+            window = cv2.copyMakeBorder(window, 0, rows - n_rows, 0, cols - n_cols, cv2.BORDER_CONSTANT, value=0)
+            half_shifts.append(_correlate(a * window, b * window, max_shift_cells=margin,
+                                          whitening=config.whitening)[0])
+        (x0, y0), (x1, y1) = half_shifts
+        if math.hypot(x1 - x0, y1 - y0) * res > config.half_agreement_m:
+            return measured.refused("halves disagree")
+    return replace(measured, accepted=True, reason="accepted")
+
+
+def _halves(core: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``core`` (uint8 0/1) split in two at the median of its cells along its longer extent."""
+    rows, cols = np.nonzero(core)
+    axis = 0 if np.ptp(rows) >= np.ptp(cols) else 1
+    coord = rows if axis == 0 else cols
+    cut = int(np.median(coord))
+    index = np.arange(core.shape[axis])
+    first = (index <= cut)[:, None] if axis == 0 else (index <= cut)[None, :]
+    return core * first, core * ~first
+
+
+class DriftEstimator:
+    """Running estimate of the navigation drift (module docstring: a Kalman filter per axis).
+
+    ``north_m``/``east_m`` is the correction ADDED to navigation positions; ``std_m`` its
+    1-sigma per axis.
+    """
+
+    def __init__(self, config: RegistrationConfig | None = None):
+        self.config = config or RegistrationConfig()
+        self.north_m = 0.0
+        self.east_m = 0.0
+        self._variance = self.config.initial_drift_std_m**2
+        self._travelled_m = 0.0
+        self.accepted = 0
+        self.rejected = 0
+
+    @property
+    def std_m(self) -> float:
+        """1-sigma of the estimate per axis, m."""
+        return math.sqrt(self._variance)
+
+    def plausible_drift_m(self, travelled_m: float) -> float:
+        """Largest total drift the navigation prior allows after ``travelled_m`` of track, m."""
+        return self.config.drift_floor_m + self.config.drift_per_m * max(travelled_m, 0.0)
+
+    def update(self, result: RegistrationResult, *, travelled_m: float) -> RegistrationResult:
+        """Fold one registration result in (test 5 of the module docstring first).
+
+        Parameters
+        ----------
+        result : RegistrationResult
+            Its shift is measured on a frame already moved by the current estimate.
+        travelled_m : float
+            Horizontal distance travelled since the mosaic began, m (non-decreasing).
+
+        Returns
+        -------
+        RegistrationResult
+            ``result``, or a refused copy when the drift it implies is implausible (test 5).
+        """
+        cfg = self.config
+        step = max(travelled_m - self._travelled_m, 0.0)
+        self._travelled_m = max(travelled_m, self._travelled_m)
+        self._variance += cfg.drift_walk_m**2 * step
+        if result.accepted:
+            gain = self._variance / (self._variance + cfg.measurement_std_m**2)
+            north = self.north_m + gain * result.shift_north_m
+            east = self.east_m + gain * result.shift_east_m
+            if math.hypot(self.north_m + result.shift_north_m,
+                          self.east_m + result.shift_east_m) > self.plausible_drift_m(travelled_m):
+                result = result.refused("drift beyond prior")
+        if not result.accepted:
+            self.rejected += 1
+            return result
+        self.north_m, self.east_m = north, east
+        self._variance *= 1.0 - gain
+        self.accepted += 1
+        return result

@@ -1,0 +1,530 @@
+"""Follow targets across frames, altitudes, passes and viewing directions.
+
+Each frame's shadow measurements are associated with the targets seen so far.
+
+With pose (the frame's ``north_m``, ``east_m``, ``heading_rad`` and altitude), by the
+target's seabed CENTRE, estimated from one frame's own geometry (flat seabed, bearing
+``heading + azimuth``):
+
+- the far top edge lies at ground distance ``g_top = r_top * g_end / r_end`` with
+  ``g_end = sqrt(r_end^2 - H^2)`` (the top edge and the shadow end share a ray), and the
+  frame's own height guess is ``h = H (1 - g_top / g_end)``;
+- the near face (the highlight's start, slant range ``r_hl``) lies at
+  ``g_near = sqrt(r_hl^2 - (H - h)^2)``;
+- the centre is ``(g_near + g_top) / 2``. Unlike the far top edge, it does not jump to
+  the other side of the target when the lane runs the other way. Without a shadow edge
+  (a cut shadow), the centre is guessed ``default_half_length_m`` beyond the near face and
+  the gate is widened by ``highlight_only_extra_gate_m``.
+
+Each detection carries a gate that grows with slant range (heading and azimuth errors)
+and altitude (altitude errors, the beam's footprint); a target's position is the
+inverse-gate-squared weighted mean of its detections' centres. Without pose, by
+azimuth-range continuity with the target's last detection: a vertical move keeps a
+target's azimuth and changes its slant range by less than the altitude change
+(``|dr| <= |dH|``), so the range gate widens with the altitude change between frames.
+
+The assignment is a minimum-cost matching inside the gates (Hungarian method, on the
+targets within reach only); a measurement that fits no target starts a new one. After
+each frame, targets that turn out to be one (positions within both gates, compatible
+height guesses, seen together in at most a few frames) are merged, keeping one
+detection per frame; targets seen in fewer than ``prune_min_detections`` frames, never
+with a complete shadow, and not for ``prune_after_frames`` frames are dropped (they give
+no height and are most often speckle); at most ``max_tracks`` targets are kept. A cut
+shadow joining a target takes the target's recent far top edge (``carry_top_frames``), so
+consumers that follow the far top edge (the pitch loop) keep the target while its shadow
+is cut.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from perception.shadows.measurement.measure import ShadowMeasurement
+
+#: Cost given to pairs outside the gates (never chosen).
+_FORBIDDEN = 1e6
+
+
+@dataclass(frozen=True)
+class TrackingConfig:
+    """Gates of :class:`TargetTracker`.
+
+    Attributes
+    ----------
+    azimuth_gate_rad : float
+        Largest azimuth difference for one target between frames, rad (no pose).
+    range_gate_m : float
+        Largest shadow-start range difference at equal altitude, m (no pose).
+    range_gate_per_dh : float
+        Extra range gate per metre of altitude change between the frames (``|dr| <= |dH|``
+        for a vertical move, so 1.0 is enough).
+    position_gate_m : float
+        Seabed distance gate between a detection's centre and a target's position at
+        zero range and altitude, m (pose mode).
+    position_gate_per_range : float
+        Growth of the position gate per metre of slant range, m/m.
+    position_gate_per_altitude : float
+        Growth of the position gate per metre of altitude, m/m.
+    highlight_only_extra_gate_m : float
+        Extra gate for a detection whose shadow edges are unknown, m.
+    default_half_length_m : float
+        Assumed half length of a target along the beam when only its near face is known, m.
+    unknown_delta_h_m : float
+        Altitude change assumed for the range gate when the frames do not say, m.
+    merge_height_gate_m, merge_height_fraction : float
+        Two targets merge only when their height guesses differ by at most
+        ``merge_height_gate_m + merge_height_fraction * max(h1, h2)`` (m, -).
+    merge_max_shared_fraction : float
+        Two targets seen together in more than this fraction of the frames of the less
+        seen one are distinct (a target split in two in a few frames still merges; in
+        the frames both were seen, one detection is kept).
+    prune_after_frames : int
+        Frames after which a target seen in fewer than ``prune_min_detections`` frames
+        and never with a complete shadow is dropped (>= 1).
+    prune_min_detections : int
+        See ``prune_after_frames``.
+    carry_top_frames : int
+        A cut shadow (no far top edge of its own) that joins a target takes the far top
+        edge of the target's latest detection that had one, when that is at most this many
+        frames old (a static target's edge from nearly the same viewpoint); 0: never.
+    max_tracks : int
+        Most targets kept; beyond it the least-seen, longest-unseen ones are dropped.
+    """
+
+    azimuth_gate_rad: float = math.radians(3.0)
+    range_gate_m: float = 0.04
+    range_gate_per_dh: float = 1.1
+    position_gate_m: float = 0.10
+    position_gate_per_range: float = 0.03
+    position_gate_per_altitude: float = 0.05
+    highlight_only_extra_gate_m: float = 0.08
+    default_half_length_m: float = 0.05
+    unknown_delta_h_m: float = 0.3
+    merge_height_gate_m: float = 0.015
+    merge_height_fraction: float = 0.25
+    merge_max_shared_fraction: float = 0.5
+    prune_after_frames: int = 150
+    prune_min_detections: int = 3
+    carry_top_frames: int = 30
+    max_tracks: int = 2000
+
+    def __post_init__(self) -> None:
+        for name in ("azimuth_gate_rad", "range_gate_m", "position_gate_m"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        for name in (
+            "range_gate_per_dh", "unknown_delta_h_m", "position_gate_per_range",
+            "position_gate_per_altitude", "highlight_only_extra_gate_m",
+            "default_half_length_m", "merge_height_gate_m", "merge_height_fraction",
+            "merge_max_shared_fraction", "prune_min_detections", "carry_top_frames",
+        ):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.prune_after_frames < 1 or self.max_tracks < 1:
+            raise ValueError(
+                f"prune_after_frames and max_tracks must be >= 1, got "
+                f"{self.prune_after_frames} and {self.max_tracks}"
+            )
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One measured shadow in one frame, with what the frame knew about its pose.
+
+    Attributes
+    ----------
+    frame_index : int
+        Order of the frame in the pipeline (0 = first).
+    measurement : ShadowMeasurement
+    altitude_m : float
+        The frame's altitude above the seabed, m; NaN when unknown.
+    delta_h_m : float
+        The frame's altitude minus the first frame's, m; NaN when unknown.
+    north_m, east_m : float
+        Seabed position of the target's far top edge in local NED, m; NaN without pose.
+        For a cut shadow it may be carried over from an earlier frame (``top_frame_index``).
+    centre_north_m, centre_east_m : float
+        Estimated seabed position of the target's centre in local NED, m; NaN when not
+        estimated (the tracker then uses ``north_m``, ``east_m``).
+    gate_m : float
+        Position gate of this detection, m; NaN: from the config's ``position_gate_m``.
+    height_guess_m : float
+        The target's height from this frame alone, m; NaN when unknown.
+    top_frame_index : int
+        The frame whose measurement gave ``north_m``, ``east_m`` (-1: this frame's own).
+    top_slope_db_per_m : float
+        Slope of the echo (dB per metre of range) just before the shadow start, over the
+        measured beams; NaN when not measured. Near 0 for a sharp far top edge, clearly
+        negative for a rounded top whose echo fades towards its grazing point
+        (:func:`perception.heights.pipeline.top_echo_slope_db_per_m`).
+    """
+
+    frame_index: int
+    measurement: ShadowMeasurement
+    altitude_m: float = math.nan
+    delta_h_m: float = math.nan
+    north_m: float = math.nan
+    east_m: float = math.nan
+    centre_north_m: float = math.nan
+    centre_east_m: float = math.nan
+    gate_m: float = math.nan
+    height_guess_m: float = math.nan
+    top_frame_index: int = -1
+    top_slope_db_per_m: float = math.nan
+
+    @property
+    def has_position(self) -> bool:
+        """True when the seabed position of the far top edge (``north_m``, ``east_m``) is known."""
+        return math.isfinite(self.north_m) and math.isfinite(self.east_m)
+
+    @property
+    def is_placed(self) -> bool:
+        """True when :attr:`position_m` (centre or far top edge) is known."""
+        return all(math.isfinite(v) for v in self.position_m)
+
+    @property
+    def position_m(self) -> tuple[float, float]:
+        """(north, east) used for association, m: the centre when known, else the top edge."""
+        if math.isfinite(self.centre_north_m) and math.isfinite(self.centre_east_m):
+            return self.centre_north_m, self.centre_east_m
+        return self.north_m, self.east_m
+
+
+def seabed_position(
+    measurement: ShadowMeasurement,
+    *,
+    altitude_m: float,
+    north_m: float,
+    east_m: float,
+    heading_rad: float,
+) -> tuple[float, float]:
+    """Local NED (north, east) of a target's far top edge, m; NaNs when not computable.
+
+    Uses one frame's geometry (flat seabed): ``g_top = r_top sqrt(r_end^2 - H^2) / r_end``
+    along the bearing ``heading + azimuth`` (the small change of bearing with tilt is
+    neglected; the tracker's gate absorbs it).
+    """
+    values = (measurement.r_top_m, measurement.r_end_m, altitude_m, north_m, east_m, heading_rad)
+    if not all(math.isfinite(v) for v in values) or measurement.r_end_m <= altitude_m:
+        return math.nan, math.nan
+    ground_end = math.sqrt(measurement.r_end_m**2 - altitude_m**2)
+    ground_top = measurement.r_top_m * ground_end / measurement.r_end_m
+    bearing = heading_rad + measurement.azimuth_rad
+    return north_m + ground_top * math.cos(bearing), east_m + ground_top * math.sin(bearing)
+
+
+@dataclass(frozen=True)
+class CentreEstimate:
+    """A target's centre from one frame (see the module docstring).
+
+    Attributes
+    ----------
+    north_m, east_m : float
+        Local NED position of the centre, m; NaN when not computable.
+    height_guess_m : float
+        Height from this frame alone, m; NaN unless the shadow is complete (``usable``).
+    gate_m : float
+        Position gate for this detection, m.
+    """
+
+    north_m: float
+    east_m: float
+    height_guess_m: float
+    gate_m: float
+
+
+def seabed_centre(
+    measurement: ShadowMeasurement,
+    *,
+    altitude_m: float,
+    north_m: float,
+    east_m: float,
+    heading_rad: float,
+    config: TrackingConfig | None = None,
+) -> CentreEstimate:
+    """The target's seabed centre, its one-frame height and its gate (module docstring)."""
+    cfg = config or TrackingConfig()
+    m, alt = measurement, altitude_m
+    nan = CentreEstimate(math.nan, math.nan, math.nan, math.nan)
+    if not all(math.isfinite(v) for v in (alt, north_m, east_m, heading_rad)) or alt <= 0:
+        return nan
+    height = math.nan
+    ground_top = math.nan
+    if math.isfinite(m.r_top_m) and math.isfinite(m.r_end_m) and m.r_end_m > alt:
+        ground_end = math.sqrt(m.r_end_m**2 - alt**2)
+        ground_top = m.r_top_m * ground_end / m.r_end_m
+        height = min(max(alt * (1.0 - ground_top / ground_end), 0.0), alt)
+    lift = height if math.isfinite(height) else 0.0
+    if not m.usable:  # a cut shadow's edges place the target but do not give its height
+        height = math.nan
+    slant = m.highlight_range_m if math.isfinite(m.highlight_range_m) else m.r_top_m
+    ground_near = math.nan
+    if math.isfinite(m.highlight_range_m) and m.highlight_range_m > alt - lift:
+        ground_near = math.sqrt(m.highlight_range_m**2 - (alt - lift) ** 2)
+    gate = cfg.position_gate_m + cfg.position_gate_per_range * slant + cfg.position_gate_per_altitude * alt
+    if math.isfinite(ground_top) and math.isfinite(ground_near) and ground_near <= ground_top:
+        ground = 0.5 * (ground_near + ground_top)
+    elif math.isfinite(ground_near):
+        ground = ground_near + cfg.default_half_length_m
+        gate += cfg.highlight_only_extra_gate_m
+    elif math.isfinite(ground_top):
+        ground = ground_top - cfg.default_half_length_m
+        gate += cfg.highlight_only_extra_gate_m
+    else:
+        return nan
+    bearing = heading_rad + m.azimuth_rad
+    return CentreEstimate(
+        north_m + ground * math.cos(bearing), east_m + ground * math.sin(bearing), height, gate
+    )
+
+
+@dataclass
+class Track:
+    """A target followed across frames (mutable; owned by :class:`TargetTracker`).
+
+    ``detections`` are kept in frame order. The weighted sums behind :meth:`position_m`
+    are kept up to date by :meth:`add`, so a position costs O(1).
+    """
+
+    track_id: int
+    detections: list[Detection] = field(default_factory=list)
+    default_gate_m: float = TrackingConfig.position_gate_m
+    _sums: list[float] = field(default_factory=lambda: [0.0] * 5, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.reset(self.detections)
+
+    def reset(self, detections: list[Detection]) -> None:
+        """Replace the detections (any order) and recompute the position sums."""
+        self.detections = []
+        self._sums = [0.0] * 5
+        for det in sorted(detections, key=lambda d: d.frame_index):
+            self.add(det)
+
+    def add(self, det: Detection) -> None:
+        """Append one detection (frames arrive in order) and update the position sums."""
+        self.detections.append(det)
+        if len(self.detections) > 1 and det.frame_index < self.detections[-2].frame_index:
+            self.detections.sort(key=lambda d: d.frame_index)
+        if det.is_placed:
+            gate = det.gate_m if math.isfinite(det.gate_m) else self.default_gate_m
+            w = 1.0 / gate**2
+            north, east = det.position_m
+            for i, v in enumerate((w, w * north, w * east, gate, 1.0)):
+                self._sums[i] += v
+
+    @property
+    def last(self) -> Detection:
+        """The most recent detection."""
+        return self.detections[-1]
+
+    def frame_indices(self) -> set[int]:
+        """Frames this target was seen in."""
+        return {d.frame_index for d in self.detections}
+
+    def position_m(self) -> tuple[float, float, float]:
+        """(north, east, gate) of the target, m: the inverse-gate-squared weighted mean of
+        its detections' centres and their mean gate; NaNs when none has a position."""
+        w, wn, we, gates, n = self._sums
+        if n == 0:
+            return math.nan, math.nan, math.nan
+        return wn / w, we / w, gates / n
+
+    def height_guess_m(self) -> float:
+        """Median of the detections' one-frame heights, m; NaN when none has one."""
+        values = [d.height_guess_m for d in self.detections if math.isfinite(d.height_guess_m)]
+        return float(np.median(values)) if values else math.nan
+
+
+class TargetTracker:
+    """Associates each frame's detections with targets; see the module docstring.
+
+    Parameters
+    ----------
+    config : TrackingConfig, optional
+    """
+
+    def __init__(self, config: TrackingConfig | None = None):
+        self.config = config or TrackingConfig()
+        self._tracks: list[Track] = []
+        self._next_id = 0
+
+    @property
+    def tracks(self) -> tuple[Track, ...]:
+        """Every target so far, in order of first sight."""
+        return tuple(self._tracks)
+
+    def _new_track(self, det: Detection) -> Track:
+        track = Track(self._next_id, [det], default_gate_m=self.config.position_gate_m)
+        self._next_id += 1
+        self._tracks.append(track)
+        return track
+
+    def _cost(self, track: Track, det: Detection) -> float:
+        """Azimuth-range cost against the track's last detection (frames without pose)."""
+        cfg = self.config
+        ref = track.last
+        if det.frame_index == ref.frame_index:  # frames arrive in order: one per frame
+            return _FORBIDDEN
+        m, r = det.measurement, ref.measurement
+        d_az = abs(m.azimuth_rad - r.azimuth_rad)
+        if d_az > cfg.azimuth_gate_rad:
+            return _FORBIDDEN
+        dh = det.delta_h_m - ref.delta_h_m
+        if not math.isfinite(dh):
+            dh = det.altitude_m - ref.altitude_m
+        if not math.isfinite(dh):
+            dh = cfg.unknown_delta_h_m
+        gate = cfg.range_gate_m + cfg.range_gate_per_dh * abs(dh)
+        if math.isfinite(m.r_top_m) and math.isfinite(r.r_top_m):
+            d_r = abs(m.r_top_m - r.r_top_m)
+        else:
+            d_r = abs(m.highlight_range_m - r.highlight_range_m)
+        if d_r > gate:
+            return _FORBIDDEN
+        return d_az / cfg.azimuth_gate_rad + d_r / gate
+
+    def _cost_matrix(self, detections: list[Detection]) -> np.ndarray:
+        """Costs, shape (n_tracks, n_detections): position gates with pose, else azimuth-range."""
+        cfg = self.config
+        n_t, n_d = len(self._tracks), len(detections)
+        cost = np.full((n_t, n_d), _FORBIDDEN)
+        state = self._positions()
+        placed = np.isfinite(state[:, 0])
+        for j, det in enumerate(detections):
+            if det.is_placed:
+                north, east = det.position_m
+                gate_d = det.gate_m if math.isfinite(det.gate_m) else cfg.position_gate_m
+                distance = np.hypot(state[:, 0] - north, state[:, 1] - east)
+                gate = np.maximum(gate_d, np.nan_to_num(state[:, 2], nan=0.0))
+                ok = placed & (distance <= gate) & (state[:, 3] != det.frame_index)
+                cost[ok, j] = distance[ok] / gate[ok]
+                rows = np.flatnonzero(~placed)
+            else:
+                rows = np.arange(n_t)
+            for i in rows:  # without pose: azimuth-range continuity (Python, no-pose mode only)
+                cost[i, j] = self._cost(self._tracks[i], det)
+        return cost
+
+    def update(self, detections: list[Detection]) -> list[int]:
+        """Associate one frame's detections; returns the track id of each, in order.
+
+        Targets merged after this frame keep the older id; the returned ids are the ids
+        after merging.
+        """
+        ids = [-1] * len(detections)
+        touched: list[Track] = []
+        if self._tracks and detections:
+            cost = self._cost_matrix(detections)
+            rows_in_reach = np.flatnonzero(np.any(cost < _FORBIDDEN, axis=1))
+            if rows_in_reach.size:
+                sub = cost[rows_in_reach]
+                rows, cols = linear_sum_assignment(sub)
+                for row, col in zip(rows, cols, strict=True):
+                    if sub[row, col] < _FORBIDDEN:
+                        track = self._tracks[int(rows_in_reach[row])]
+                        track.add(self._with_carried_top(track, detections[col]))
+                        ids[col] = track.track_id
+                        touched.append(track)
+        for i, det in enumerate(detections):
+            if ids[i] < 0:
+                track = self._new_track(det)
+                ids[i] = track.track_id
+                touched.append(track)
+        renamed = self._merge(touched)
+        if detections:
+            self._prune(max(d.frame_index for d in detections))
+        return [renamed.get(i, i) for i in ids]
+
+    def _with_carried_top(self, track: Track, det: Detection) -> Detection:
+        """``det`` with the far top edge of the track's latest detection that had its own
+        (config ``carry_top_frames``), when ``det`` has none."""
+        if det.has_position or not det.is_placed:
+            return det
+        for ref in reversed(track.detections):
+            if det.frame_index - ref.frame_index > self.config.carry_top_frames:
+                break
+            if ref.has_position and ref.top_frame_index < 0:
+                return replace(det, north_m=ref.north_m, east_m=ref.east_m, top_frame_index=ref.frame_index)
+        return det
+
+    def _compatible_heights(self, a: Track, b: Track) -> bool:
+        cfg = self.config
+        ha, hb = a.height_guess_m(), b.height_guess_m()
+        if not (math.isfinite(ha) and math.isfinite(hb)):
+            return True
+        return abs(ha - hb) <= cfg.merge_height_gate_m + cfg.merge_height_fraction * max(ha, hb)
+
+    def _positions(self) -> np.ndarray:
+        """(north, east, gate, last frame) of every track, shape (n_tracks, 4), m (NaN: unplaced)."""
+        rows = [(*t.position_m(), t.last.frame_index) for t in self._tracks]
+        return np.array(rows, dtype=float).reshape(len(rows), 4)
+
+    def _merge(self, touched: list[Track]) -> dict[int, int]:
+        """Merge each touched track with the others that are the same target; old id -> new."""
+        cfg = self.config
+        renamed: dict[int, int] = {}
+        state = self._positions()
+        for track in touched:
+            if track.track_id in renamed:
+                continue
+            while True:
+                north, east, gate = track.position_m()
+                if not math.isfinite(north):
+                    break
+                distance = np.hypot(state[:, 0] - north, state[:, 1] - east)
+                near = np.flatnonzero(distance <= np.minimum(gate, state[:, 2]))
+                frames = track.frame_indices()
+                partner = None
+                for i in near[np.argsort(distance[near])]:
+                    other = self._tracks[int(i)]
+                    if other is track:
+                        continue
+                    shared = len(frames & other.frame_indices())
+                    if shared > cfg.merge_max_shared_fraction * min(len(frames), len(other.detections)):
+                        continue
+                    if self._compatible_heights(track, other):
+                        partner = other
+                        break
+                if partner is None:
+                    break
+                keep, gone = (track, partner) if track.track_id < partner.track_id else (partner, track)
+                self._absorb(keep, gone)
+                self._tracks.remove(gone)
+                state = self._positions()
+                renamed[gone.track_id] = keep.track_id
+                for old, new in renamed.items():
+                    if new == gone.track_id:
+                        renamed[old] = keep.track_id
+                track = keep
+        return renamed
+
+    def _absorb(self, keep: Track, gone: Track) -> None:
+        """Move ``gone``'s detections into ``keep``; in a frame both saw, keep the complete
+        shadow (or ``keep``'s detection)."""
+        by_frame = {d.frame_index: d for d in keep.detections}
+        merged = dict(by_frame)
+        for det in gone.detections:
+            mine = by_frame.get(det.frame_index)
+            if mine is None or (det.measurement.usable and not mine.measurement.usable):
+                merged[det.frame_index] = det
+        keep.reset(list(merged.values()))
+
+    def _prune(self, frame_index: int) -> None:
+        """Drop rarely seen targets without a complete shadow not seen for a while; cap the
+        number of targets."""
+        cfg = self.config
+        self._tracks = [
+            t for t in self._tracks
+            if len(t.detections) >= cfg.prune_min_detections
+            or frame_index - t.last.frame_index < cfg.prune_after_frames
+            or any(d.measurement.usable for d in t.detections)
+        ]
+        if len(self._tracks) > cfg.max_tracks:
+            ranked = sorted(self._tracks, key=lambda t: (len(t.detections), t.last.frame_index))
+            drop = {id(t) for t in ranked[: len(self._tracks) - cfg.max_tracks]}
+            self._tracks = [t for t in self._tracks if id(t) not in drop]

@@ -1,0 +1,565 @@
+"""Forward-looking sonar renderer: polar frames of a :class:`~sim_harness.world.world.World`.
+
+Defaults are an ARIS Explorer 3000 in its 128-beam mode (SDK beam table, 14 deg vertical
+aperture, 3 MHz, window 0.7-3.0 m with 1000 samples); any other forward-looking sonar is
+set by :class:`SonarConfig`.
+
+Pipeline per frame (geometry in :mod:`sim_harness.sonar.geometry`, the seabed in
+:mod:`sim_harness.sonar.seabed`, targets in :mod:`sim_harness.sonar.targets`):
+
+1. the seabed's echo per (range cell, beam), analytic: the exact elevation interval of
+   each cell's seabed, weighted by the elevation beam pattern
+   ``exp(ln(10)/10 * edge_db * (e/A)^2)`` (``edge_db`` at the aperture edge ``A``, zero
+   outside), the material's scattering at the incidence angle, the footprint and 1/r^2,
+   times the seabed's persistent reflectivity texture at the cell's ground point when the
+   world has one (:mod:`sim_harness.world.texture`; fixed in north/east, so it stays put
+   from ping to ping while the speckle of step 5 does not);
+2. targets: beam-axis rays on a fine elevation grid; the nearest hit wins, so the seabed
+   inside each occluded (edge-refined) elevation interval is removed -- shadows come from
+   occlusion -- and target hits add echo at their ranges;
+3. two-way absorption, gain and time-varying gain (``tvg_db_per_decade * log10(r)`` plus
+   the absorption when ``tvg_absorption``);
+4. range blur by the pulse (Gaussian, FWHM = c * pulse / 2) and leakage into neighbouring
+   beams (side lobes, ``sidelobe_db`` for neighbours 1, 2, 3, ...);
+5. multiplicative speckle, gamma distributed with ``speckle_looks`` looks and mean 1, and
+   an additive noise floor (exponential power of mean ``noise_floor_db``);
+6. 0-80 dB mapped linearly to 0-255, as the ARIS SDK documents (``understanding-aris-data``:
+   "sample values 0-255 map to an acoustic signal in the range 0-80 dB"), i.e.
+   ``uint8 = clip(round(10 log10(power) * 255 / 80), 0, 255)`` with power in display units.
+
+Determinism: the noise of a frame depends only on ``config.seed`` and the frame's
+``timestamp_s`` (its float64 bit pattern seeds the offsets into two seeded banks of
+independent gamma and exponential variates drawn once per renderer). The same world,
+config, pose and timestamp give the identical frame, in any call order.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import functools
+import math
+import sys
+from dataclasses import dataclass, field, replace
+
+import cv2
+import numpy as np
+
+from perception.sonar_io.beams import aris3000_128
+from perception.sonar_io.frame import SonarFrame
+from sim_harness.sonar.geometry import pose_geometry, target_table
+from sim_harness.sonar.seabed import seabed_branches
+from sim_harness.sonar.targets import (
+    Sampling,
+    cast_all,
+    hidden_seabed,
+    no_runs,
+    occlusion_runs,
+    ray_batch,
+    target_echo,
+    target_truths,
+)
+from sim_harness.sonar.truth import FrameTruth, Label, TargetTruth
+from sim_harness.world.errors import PoseError, SonarConfigError
+from sim_harness.world.world import World
+
+FloatArray = np.ndarray
+
+
+
+#: glibc ``mallopt`` parameters (malloc.h): M_TRIM_THRESHOLD and M_MMAP_THRESHOLD.
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+#: Freed heap glibc may keep for reuse instead of returning it to the OS, bytes.
+ALLOCATOR_TRIM_BYTES = 64 << 20
+#: Allocations at least this large get their own mapping (the noise banks do not), bytes.
+ALLOCATOR_MMAP_BYTES = 16 << 20
+
+
+@functools.cache
+def _keep_freed_memory() -> None:
+    """Let glibc keep freed heap memory between frames (process-wide, once, Linux only).
+
+    A frame allocates and frees a few MB of temporaries. With glibc's default thresholds
+    the freed memory goes back to the OS (trim / munmap) and comes back as ~1000 page
+    faults a frame -- about a quarter of the frame time. Raising the thresholds keeps at
+    most ALLOCATOR_TRIM_BYTES of freed heap for reuse; results are unchanged. Elsewhere
+    (another C library, no ``mallopt``) this does nothing.
+    """
+    if not sys.platform.startswith("linux"):
+        return
+    name = ctypes.util.find_library("c")
+    if name is None:
+        return
+    try:
+        mallopt = ctypes.CDLL(name).mallopt
+    except (OSError, AttributeError):
+        return
+    mallopt.argtypes = [ctypes.c_int, ctypes.c_int]
+    mallopt.restype = ctypes.c_int
+    mallopt(_M_MMAP_THRESHOLD, ALLOCATOR_MMAP_BYTES)
+    mallopt(_M_TRIM_THRESHOLD, ALLOCATOR_TRIM_BYTES)
+
+
+def _aris_azimuths() -> tuple[float, ...]:
+    return tuple(float(a) for a in aris3000_128().azimuth_rad)
+
+
+@dataclass(frozen=True)
+class SonarPose:
+    """Where the sonar is and how it points.
+
+    ``depth_m`` is the SONAR's depth (positive down); heading clockwise from north, pitch
+    positive nose up, roll positive starboard down (vehicle attitude, ArduPilot
+    conventions); ``tilt_rad`` the mount depression, positive down. Radians throughout.
+    """
+
+    north_m: float
+    east_m: float
+    depth_m: float
+    heading_rad: float = 0.0
+    pitch_rad: float = 0.0
+    roll_rad: float = 0.0
+    tilt_rad: float = 0.0
+
+
+@dataclass(frozen=True)
+class SonarConfig:
+    """Sonar parameters (ARIS Explorer 3000, 128 beams, by default).
+
+    Attributes
+    ----------
+    beam_azimuth_rad : tuple of float
+        Beam axis azimuths, strictly increasing, rad (default: the SDK's ARIS3000_128 table).
+    beam_width_rad : tuple of float or None
+        Azimuth width of each beam, rad; None: the SDK table's (default azimuths) or the
+        beam spacing.
+    elevation_aperture_rad : float
+        Full vertical aperture, rad (14 deg).
+    elevation_edge_db : float
+        Beam pattern at the aperture edges relative to the axis, dB (<= 0).
+    frequency_hz : float
+        Carrier frequency (metadata; absorption is set directly).
+    window_start_m, window_length_m : float
+        Range window; sample i covers ``[start + i dr, start + (i+1) dr]``, ``dr =
+        length / samples_per_beam``, and ``range_m`` holds the cell centres.
+    samples_per_beam : int
+    frame_rate_hz : float
+        Ping rate (metadata for callers and the .aris writer).
+    sound_speed_m_s : float
+    pulse_length_s : float
+        Transmit pulse; range blur FWHM ``c * pulse / 2``; 0 turns the blur off.
+    absorption_db_per_m : float
+        One-way absorption (about 2 dB/m at 3 MHz).
+    gain_db : float
+        Receiver gain from model power to display power (1 display unit = 0 dB).
+    tvg_db_per_decade : float
+        Time-varying gain ``tvg_db_per_decade * log10(r / 1 m)``; 0 turns it off.
+    tvg_absorption : bool
+        Whether the TVG also restores the two-way absorption.
+    sidelobe_db : tuple of float
+        Leakage into beams 1, 2, ... columns away, dB; empty for none.
+    speckle_looks : float
+        Looks of the gamma speckle (mean 1, CV ``1/sqrt(looks)``); 0 turns speckle off. The
+        default, 1 (fully developed speckle), gives the grain of the real ARIS recording in
+        ``../shared/data/aris/sample.aris`` (local CV of the uint8 samples ~0.15).
+    noise_floor_db : float or None
+        Mean display power of the additive noise, dB; None for no noise.
+    target_ray_step_rad : float
+        Elevation step of the rays cast at targets (their occlusion edges are refined to
+        1/32 of it; their echo is spread between neighbouring rays, so no cell is missed).
+    seed : int
+    fill_altitude : bool
+        Whether frames report the (true) altitude as an altimeter would.
+    noise_bank_size : int
+        Variates in each seeded noise bank (>= 2 x samples x beams).
+    """
+
+    beam_azimuth_rad: tuple[float, ...] = field(default_factory=_aris_azimuths)
+    beam_width_rad: tuple[float, ...] | None = None
+    elevation_aperture_rad: float = math.radians(14.0)
+    elevation_edge_db: float = -3.0
+    frequency_hz: float = 3.0e6
+    window_start_m: float = 0.7
+    window_length_m: float = 2.3
+    samples_per_beam: int = 1000
+    frame_rate_hz: float = 10.0
+    sound_speed_m_s: float = 1480.0
+    pulse_length_s: float = 8e-6
+    absorption_db_per_m: float = 2.0
+    gain_db: float = 127.0
+    tvg_db_per_decade: float = 30.0
+    tvg_absorption: bool = True
+    sidelobe_db: tuple[float, ...] = (-20.0, -27.0, -33.0)
+    speckle_looks: float = 1.0
+    noise_floor_db: float | None = 12.0
+    target_ray_step_rad: float = math.radians(0.08)
+    seed: int = 0
+    fill_altitude: bool = True
+    noise_bank_size: int = 1 << 21
+
+    def __post_init__(self) -> None:
+        az = np.asarray(self.beam_azimuth_rad, dtype=np.float64)
+        if az.ndim != 1 or az.size < 2 or not np.all(np.isfinite(az)) or not np.all(np.diff(az) > 0):
+            raise SonarConfigError("must be >= 2 finite, strictly increasing azimuths", key="beam_azimuth_rad")
+        if np.any(np.abs(az) >= math.pi / 2):
+            raise SonarConfigError("azimuths must lie within (-90, 90) deg", key="beam_azimuth_rad")
+        if self.beam_width_rad is not None:
+            w = np.asarray(self.beam_width_rad, dtype=np.float64)
+            if w.shape != az.shape or not np.all(w > 0):
+                raise SonarConfigError("must be one positive width per beam", key="beam_width_rad")
+        checks = {
+            "elevation_aperture_rad": (0.0, math.pi, False),
+            "window_start_m": (0.0, math.inf, True),
+            "window_length_m": (0.0, math.inf, False),
+            "frame_rate_hz": (0.0, math.inf, False),
+            "frequency_hz": (0.0, math.inf, False),
+            "sound_speed_m_s": (1300.0, 1700.0, True),
+            "pulse_length_s": (0.0, 1e-3, True),
+            "absorption_db_per_m": (0.0, 100.0, True),
+            "target_ray_step_rad": (0.0, math.radians(1.0), False),
+        }
+        for key, (lo, hi, closed) in checks.items():
+            v = float(getattr(self, key))
+            ok = math.isfinite(v) and (lo <= v if closed else lo < v) and v < hi
+            if not ok:
+                raise SonarConfigError(f"must be finite and in {'[' if closed else '('}{lo}, {hi}), got {v}", key=key)
+        for key in ("gain_db", "tvg_db_per_decade", "elevation_edge_db"):
+            if not math.isfinite(float(getattr(self, key))):
+                raise SonarConfigError("must be finite", key=key)
+        if self.elevation_edge_db > 0:
+            raise SonarConfigError("must be <= 0 dB", key="elevation_edge_db")
+        if int(self.samples_per_beam) != self.samples_per_beam or self.samples_per_beam < 2:
+            raise SonarConfigError("must be an integer >= 2", key="samples_per_beam")
+        if not (math.isfinite(self.speckle_looks) and self.speckle_looks >= 0):
+            raise SonarConfigError("must be >= 0 (0 = no speckle)", key="speckle_looks")
+        if self.noise_floor_db is not None and not math.isfinite(self.noise_floor_db):
+            raise SonarConfigError("must be finite or None", key="noise_floor_db")
+        if any(not (math.isfinite(v) and v <= 0) for v in self.sidelobe_db):
+            raise SonarConfigError("side lobes must be finite and <= 0 dB", key="sidelobe_db")
+        if self.noise_bank_size < 2 * self.samples_per_beam * az.size:
+            raise SonarConfigError("must be >= 2 x samples_per_beam x beams", key="noise_bank_size")
+
+    @property
+    def n_beams(self) -> int:
+        """Number of beams."""
+        return len(self.beam_azimuth_rad)
+
+    @property
+    def range_resolution_m(self) -> float:
+        """Range cell size, m."""
+        return self.window_length_m / self.samples_per_beam
+
+    @property
+    def range_m(self) -> FloatArray:
+        """Range cell centres, shape (samples_per_beam,), m."""
+        return self.window_start_m + (np.arange(self.samples_per_beam) + 0.5) * self.range_resolution_m
+
+    @property
+    def window_end_m(self) -> float:
+        """Far end of the range window, m."""
+        return self.window_start_m + self.window_length_m
+
+    def with_range_grid(self, range_m: FloatArray) -> SonarConfig:
+        """A copy whose cell centres are the evenly spaced ``range_m`` (e.g. an ARIS grid)."""
+        r = np.asarray(range_m, dtype=np.float64)
+        if r.ndim != 1 or r.size < 2 or not np.all(np.diff(r) > 0):
+            raise SonarConfigError("must be an increasing 1-D grid", key="range_m")
+        dr = float(r[-1] - r[0]) / (r.size - 1)
+        return replace(self, window_start_m=float(r[0]) - dr / 2, window_length_m=dr * r.size,
+                       samples_per_beam=int(r.size))
+
+
+@dataclass(frozen=True, eq=False)
+class RenderLayers:
+    """Intermediate products of one render, arrays of shape (n_samples, n_beams).
+
+    ``clean_power``: display-linear power before speckle and noise (float32);
+    ``power``: after speckle and noise; ``image``: uint8 (0-80 dB); ``seabed_span_rad``:
+    total seabed elevation span inside the aperture per cell; ``labels``/``owner``: as in
+    :class:`~sim_harness.sonar.truth.FrameTruth`.
+    """
+
+    clean_power: np.ndarray
+    power: np.ndarray
+    image: np.ndarray
+    seabed_span_rad: FloatArray
+    labels: np.ndarray
+    owner: np.ndarray
+    targets: tuple[TargetTruth, ...]
+    altitude_m: float
+    altitude_normal_m: float
+    seabed_normal_ned: FloatArray
+
+
+def validate_pose(world: World, pose: SonarPose) -> float:
+    """Raise :class:`PoseError` for a pose the renderer cannot use; else return the seabed's
+    depth (with relief) under the sonar, m."""
+    for name in ("north_m", "east_m", "depth_m", "heading_rad", "pitch_rad", "roll_rad", "tilt_rad"):
+        if not math.isfinite(float(getattr(pose, name))):
+            raise PoseError(f"must be finite, got {getattr(pose, name)!r}", field=name)
+    if pose.depth_m < 0:
+        raise PoseError(f"sonar is above the water surface (depth {pose.depth_m} m)", field="depth_m")
+    for name in ("pitch_rad", "roll_rad", "tilt_rad"):
+        if abs(getattr(pose, name)) > math.pi / 2:
+            raise PoseError(f"must lie within +-90 deg, got {math.degrees(getattr(pose, name)):.1f} deg", field=name)
+    seabed = world.seabed_depth_m(pose.north_m, pose.east_m)
+    if seabed - pose.depth_m <= 0:
+        raise PoseError(
+            f"sonar at depth {pose.depth_m} m is at or below the seabed ({seabed:.3f} m) at "
+            f"north {pose.north_m} m, east {pose.east_m} m",
+            field="depth_m",
+        )
+    return float(seabed)
+
+
+def power_to_uint8(power: np.ndarray) -> np.ndarray:
+    """Display power (linear, 1 = 0 dB) to ARIS sample values: 0-80 dB -> 0-255, saturating.
+
+    ``round(10 log10(power) * 255 / 80)`` clipped to [0, 255]; powers below 1 give 0.
+    """
+    p = np.asarray(power, dtype=np.float32)
+    log = cv2.log(np.maximum(p, np.float32(1.0)))
+    scale = 10.0 / math.log(10.0) * 255.0 / 80.0
+    return np.asarray(cv2.convertScaleAbs(log, alpha=scale), dtype=np.uint8)
+
+
+def _gaussian_kernel(sigma: float) -> np.ndarray:
+    if sigma < 0.25:
+        return np.ones(1, dtype=np.float32)
+    half = max(1, math.ceil(3.0 * sigma))
+    x = np.arange(-half, half + 1, dtype=np.float64)
+    k = np.exp(-0.5 * (x / sigma) ** 2)
+    return (k / k.sum()).astype(np.float32)
+
+
+class SonarRenderer:
+    """Renders :class:`~perception.sonar_io.frame.SonarFrame` s of a world (see module docstring).
+
+    Parameters
+    ----------
+    world : World
+    config : SonarConfig
+    """
+
+    def __init__(self, world: World, config: SonarConfig | None = None):
+        _keep_freed_memory()
+        self.world = world
+        self.config = config if config is not None else SonarConfig()
+        cfg = self.config
+        self._azimuth = np.asarray(cfg.beam_azimuth_rad, dtype=np.float64)
+        if cfg.beam_width_rad is not None:
+            self._beam_width = np.asarray(cfg.beam_width_rad, dtype=np.float64)
+        elif cfg.beam_azimuth_rad == _aris_azimuths():
+            table = aris3000_128()
+            self._beam_width = np.asarray(table.right_rad - table.left_rad, dtype=np.float64)
+        else:
+            self._beam_width = np.gradient(self._azimuth)
+        self._range = cfg.range_m
+        dr = cfg.range_resolution_m
+        self._edges = cfg.window_start_m + np.arange(cfg.samples_per_beam + 1) * dr
+        self._half_ap = cfg.elevation_aperture_rad / 2
+        footprint_m = self._beam_width[None, :] / self._range[:, None] ** 2
+        self._pattern_coeff = cfg.elevation_edge_db * math.log(10.0) / 10.0
+        absorb_db = -2.0 * cfg.absorption_db_per_m * self._range
+        tvg_db = cfg.tvg_db_per_decade * np.log10(self._range / 1.0) if cfg.tvg_db_per_decade else 0.0
+        if cfg.tvg_absorption:
+            tvg_db = tvg_db + 2.0 * cfg.absorption_db_per_m * self._range
+        row_db = cfg.gain_db + absorb_db + tvg_db
+        self._row_gain = (10.0 ** (row_db / 10.0)).astype(np.float32)[:, None]
+        # footprint with the row gain folded in: the seabed comes out in display units
+        self._footprint = (footprint_m * self._row_gain).astype(np.float32)
+        fwhm_m = cfg.sound_speed_m_s * cfg.pulse_length_s / 2.0
+        self._range_kernel = _gaussian_kernel(fwhm_m / 2.3548 / dr)
+        side = [10.0 ** (db / 10.0) for db in cfg.sidelobe_db]
+        self._beam_kernel = np.array(side[::-1] + [1.0] + side, dtype=np.float32)
+        bank_rng = np.random.default_rng([cfg.seed, 0x5EED])
+        n = int(cfg.noise_bank_size)
+        if cfg.speckle_looks > 0:
+            looks = float(cfg.speckle_looks)
+            self._speckle_bank = (bank_rng.standard_gamma(looks, n, dtype=np.float32) / np.float32(looks))
+        else:
+            self._speckle_bank = np.ones(0, dtype=np.float32)
+        self._noise_bank = bank_rng.standard_exponential(n, dtype=np.float32)
+        self._noise_mean = 0.0 if cfg.noise_floor_db is None else 10.0 ** (cfg.noise_floor_db / 10.0)
+        self._targets = target_table(world)
+        self._sampling = Sampling(
+            n_samples=cfg.samples_per_beam,
+            n_beams=cfg.n_beams,
+            window_start_m=float(self._edges[0]),
+            window_end_m=float(self._edges[-1]),
+            range_resolution_m=dr,
+            azimuth_rad=self._azimuth,
+            beam_width_rad=self._beam_width,
+            half_aperture_rad=self._half_ap,
+            pattern_coeff=self._pattern_coeff,
+            ray_step_rad=cfg.target_ray_step_rad,
+            row_gain=self._row_gain,
+        )
+
+    # ------------------------------------------------------------------ public API
+    def render(
+        self, pose: SonarPose, timestamp_s: float, *, altitude_m: float | None = None
+    ) -> tuple[SonarFrame, FrameTruth]:
+        """Render one ping.
+
+        Parameters
+        ----------
+        pose : SonarPose
+        timestamp_s : float
+            Ping time, s; with ``config.seed`` it fixes the noise.
+        altitude_m : float, optional
+            Altitude to report in the frame (e.g. a simulated altimeter's reading); by
+            default the true altitude when ``config.fill_altitude``, else NaN.
+
+        Returns
+        -------
+        (SonarFrame, FrameTruth)
+            The frame carries the image, ranges, azimuths, aperture, timestamp, sound speed
+            and the pose a vehicle knows; the truth carries labels and target geometry.
+
+        Raises
+        ------
+        PoseError
+            For a pose under the seabed, above the water, or not finite.
+        """
+        layers = self.render_layers(pose, timestamp_s)
+        if altitude_m is None:
+            altitude_m = layers.altitude_m if self.config.fill_altitude else math.nan
+        frame = SonarFrame(
+            image=layers.image,
+            range_m=self._range,
+            beam_azimuth_rad=self._azimuth,
+            elevation_aperture_rad=self.config.elevation_aperture_rad,
+            timestamp_s=float(timestamp_s),
+            sonar_depth_m=pose.depth_m,
+            altitude_m=float(altitude_m),
+            tilt_rad=pose.tilt_rad,
+            vehicle_pitch_rad=pose.pitch_rad,
+            vehicle_roll_rad=pose.roll_rad,
+            heading_rad=pose.heading_rad,
+            north_m=pose.north_m,
+            east_m=pose.east_m,
+            sound_speed_m_s=self.config.sound_speed_m_s,
+        )
+        truth = FrameTruth(
+            labels=layers.labels,
+            owner=layers.owner,
+            targets=layers.targets,
+            timestamp_s=float(timestamp_s),
+            pose=pose,
+            altitude_m=layers.altitude_m,
+            altitude_normal_m=layers.altitude_normal_m,
+            seabed_normal_ned=layers.seabed_normal_ned,
+            seed=self.config.seed,
+        )
+        return frame, truth
+
+    def render_layers(self, pose: SonarPose, timestamp_s: float) -> RenderLayers:
+        """Render one ping and keep the intermediate layers (see :class:`RenderLayers`)."""
+        if not math.isfinite(float(timestamp_s)):
+            raise PoseError(f"timestamp must be finite, got {timestamp_s!r}")
+        seabed_depth_m = validate_pose(self.world, pose)
+        cfg = self.config
+        n_s, n_b = cfg.samples_per_beam, cfg.n_beams
+        geo = pose_geometry(
+            self.world,
+            north_m=pose.north_m,
+            east_m=pose.east_m,
+            depth_m=pose.depth_m,
+            heading_rad=pose.heading_rad,
+            pitch_rad=pose.pitch_rad,
+            roll_rad=pose.roll_rad,
+            tilt_rad=pose.tilt_rad,
+            beam_azimuth_rad=self._azimuth,
+        )
+        branches = seabed_branches(
+            self.world,
+            geo,
+            range_edges_m=self._edges,
+            range_centres_m=self._range,
+            half_aperture_rad=self._half_ap,
+            pattern_coeff=self._pattern_coeff,
+            footprint=self._footprint,
+        )
+        casts = cast_all(self.world, geo, self._sampling, self._targets)
+        if casts:
+            batch = ray_batch(casts)
+            runs = occlusion_runs(self.world, geo, casts, batch)
+            target_power, highlight, owner = target_echo(self.world, casts, batch, runs, self._sampling)
+        else:
+            runs = no_runs()
+            highlight = np.zeros((n_s, n_b), dtype=bool)
+            owner = np.zeros((n_s, n_b), dtype=np.uint8)
+        owner_flat = owner.ravel()
+        hidden = hidden_seabed(self.world, geo, branches, runs, owner_flat, highlight, self._sampling)
+
+        seabed = np.zeros((n_s, n_b), dtype=np.float32)
+        span = np.zeros((n_s, n_b), dtype=np.float32)
+        seabed_flat, span_flat = seabed.ravel(), span.ravel()
+        for branch, (cells, gone) in zip(branches, hidden, strict=True):
+            rows = branch.rows
+            span[rows] += branch.span
+            seabed[rows] += branch.power
+            if cells.size:
+                local = cells - branch.row0 * n_b
+                seabed_flat[cells] -= branch.power.ravel()[local] * gone / branch.span.ravel()[local]
+        for cells, _ in hidden:  # rounding of a fully hidden cell (elsewhere the echo is >= 0)
+            if cells.size:
+                seabed_flat[cells] = np.maximum(seabed_flat[cells], np.float32(0.0))
+
+        labels = (span > 0).view(np.uint8) * np.uint8(Label.SEABED)
+        labels_flat = labels.ravel()
+        touched = [c for c, _ in hidden if c.size]
+        if touched:
+            cells_all = np.concatenate(touched)
+            gone_all = np.concatenate([g for c, g in hidden if c.size])
+            unique, inverse = np.unique(cells_all, return_inverse=True)
+            gone_sum = np.bincount(inverse, weights=gone_all)
+            total = span_flat[unique]
+            lit = highlight.ravel()[unique]
+            shadow = (total > 0) & (gone_sum >= 0.5 * total) & ~lit
+            labels_flat[unique[shadow]] = Label.SHADOW
+            owner_flat[unique[~shadow & ~lit]] = 0
+        labels[highlight] = Label.HIGHLIGHT
+
+        raw = seabed  # gains are folded into the footprint and the target weights
+        if casts:
+            target_power.add_to(raw)
+        clean = cv2.sepFilter2D(
+            raw, cv2.CV_32F, self._beam_kernel, self._range_kernel, borderType=cv2.BORDER_CONSTANT
+        )
+        power = self._add_noise(clean, timestamp_s)
+        image = power_to_uint8(power)
+        truths = target_truths(geo, casts, runs, self._sampling)
+        altitude = seabed_depth_m - pose.depth_m
+        normal = -geo.c_vec / geo.c_norm
+        return RenderLayers(
+            clean_power=clean,
+            power=power,
+            image=image,
+            seabed_span_rad=span,
+            labels=labels,
+            owner=owner,
+            targets=truths,
+            altitude_m=float(altitude),
+            altitude_normal_m=geo.height_v_m / geo.c_norm,
+            seabed_normal_ned=normal,
+        )
+
+    # ------------------------------------------------------------------ internals
+    def _add_noise(self, clean: np.ndarray, timestamp_s: float) -> np.ndarray:
+        cfg = self.config
+        size = clean.size
+        bits = int(np.array([timestamp_s], dtype=np.float64).view(np.uint64)[0])
+        rng = np.random.default_rng([cfg.seed, bits])
+        n = int(cfg.noise_bank_size)
+        if self._speckle_bank.size:  # a new array either way: ``clean`` is kept as a layer
+            o = int(rng.integers(0, n - size + 1))
+            out = np.multiply(clean, self._speckle_bank[o:o + size].reshape(clean.shape), dtype=np.float32)
+        else:
+            out = np.array(clean, dtype=np.float32)
+        if self._noise_mean > 0:
+            o = int(rng.integers(0, n - size + 1))
+            out += np.float32(self._noise_mean) * self._noise_bank[o:o + size].reshape(clean.shape)
+        return out
+

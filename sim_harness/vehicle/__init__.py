@@ -1,0 +1,30 @@
+"""The software ROV's body: dynamics, sensors and its low-level control laws."""
+
+from sim_harness.vehicle.dynamics import (
+    AttitudeDisturbance,
+    MountLimits,
+    RovParams,
+    UniformCurrent,
+    derivative,
+    derivative_casadi,
+    slew_tilt,
+    step_rk4,
+)
+from sim_harness.vehicle.sensors import FlatSeabed, SeabedWorld, SensorConfig, SensorReadings, SensorSuite, SlopedSeabed
+
+__all__ = [
+    "AttitudeDisturbance",
+    "FlatSeabed",
+    "MountLimits",
+    "RovParams",
+    "SeabedWorld",
+    "SensorConfig",
+    "SensorReadings",
+    "SensorSuite",
+    "SlopedSeabed",
+    "UniformCurrent",
+    "derivative",
+    "derivative_casadi",
+    "slew_tilt",
+    "step_rk4",
+]

@@ -1,0 +1,137 @@
+"""Scene files: built-ins, TOML/JSON equivalence, includes and clear errors."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from sim_harness.sonar.scene import builtin_scenes, load_scene
+from sim_harness.world.errors import SceneError
+
+MINIMAL = """
+[seabed]
+depth_m = 5.0
+
+[[targets]]
+id = "a"
+shape = "box"
+north_m = 2.0
+east_m = 0.0
+length_m = 0.2
+width_m = 0.1
+height_m = 0.05
+
+[viewpoint]
+altitude_m = 1.0
+"""
+
+
+def _write(tmp_path: Path, name: str, text: str) -> Path:
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_paper_tank_holds_table_one(shared_dir: Path) -> None:
+    tables = json.loads((shared_dir / "data" / "paper_tables.json").read_text())
+    scene = load_scene("paper-tank")
+    assert scene.world.seabed_depth_m(0.0, 0.0) == pytest.approx(tables["table_I_tank"]["water_depth_cm"] / 100)
+    specs = {t.target_id: t for t in scene.world.targets}
+    assert len(specs) == 5
+    for row in tables["table_I_targets_cm"]:
+        spec = specs[str(row["target"])]
+        assert (spec.length_m, spec.width_m, spec.height_m) == pytest.approx(
+            (row["L"] / 100, row["W"] / 100, row["H"] / 100)
+        )
+    assert scene.viewpoint.altitude_m == pytest.approx(0.5)
+
+
+def test_open_seabed_has_a_dozen_targets_2_to_40_cm() -> None:
+    scene = load_scene("open-seabed")
+    heights = [t.height_m for t in scene.world.targets]
+    assert len(heights) == 12
+    assert min(heights) == pytest.approx(0.02) and max(heights) == pytest.approx(0.40)
+    assert {t.shape for t in scene.world.targets} == {"box", "cylinder", "stone", "rock"}
+    for t in scene.world.targets:
+        assert 0.0 <= t.north_m <= 30.0 and 0.0 <= t.east_m <= 30.0
+    assert not math.isnan(scene.world.origin_lat_deg)
+    assert set(builtin_scenes()) == {"paper-tank", "open-seabed"}
+
+
+def test_toml_and_json_give_the_same_world(tmp_path: Path) -> None:
+    import tomllib
+
+    doc = tomllib.loads(MINIMAL)
+    a = load_scene(_write(tmp_path, "s.toml", MINIMAL))
+    b = load_scene(_write(tmp_path, "s.json", json.dumps(doc)))
+    assert a.world.targets == b.world.targets
+    assert a.world.seabed == b.world.seabed
+    assert a.name == "s"
+
+
+def test_include_composes_scenes(tmp_path: Path) -> None:
+    text = """
+include = ["open-seabed"]
+[[targets]]
+id = "extra"
+shape = "cylinder"
+north_m = 3.0
+east_m = 15.0
+diameter_m = 0.3
+height_m = 0.6
+"""
+    scene = load_scene(_write(tmp_path, "dive.toml", text))
+    ids = [t.target_id for t in scene.world.targets]
+    assert len(ids) == 13 and ids[-1] == "extra"
+    assert scene.world.seabed == load_scene("open-seabed").world.seabed
+    base = load_scene("open-seabed").viewpoint
+    assert (scene.viewpoint.north_m, scene.viewpoint.east_m, scene.viewpoint.altitude_m) == (
+        base.north_m, base.east_m, base.altitude_m)
+    assert scene.sonar == load_scene("open-seabed").sonar
+
+
+@pytest.mark.parametrize(
+    ("change", "key", "message"),
+    [
+        (("depth_m = 5.0", "depth_m = -5.0"), "seabed.depth_m", "> 0"),
+        (("depth_m = 5.0", "dept_m = 5.0"), "seabed.dept_m", "unknown key"),
+        (('shape = "box"', 'shape = "pyramid"'), "targets[0].shape", "unknown shape"),
+        (("height_m = 0.05", "height_m = 0.0"), "targets[0].height_m", "> 0"),
+        (("height_m = 0.05", 'height_m = "tall"'), "targets[0].height_m", "must be a number"),
+        (("width_m = 0.1\n", ""), "targets[0].width_m", "is required"),
+        (("altitude_m = 1.0", "altitude_m = 1.0\nzoom = 2"), "viewpoint.zoom", "unknown key"),
+    ],
+)
+def test_bad_scene_files_name_file_and_key(tmp_path: Path, change: tuple[str, str], key: str, message: str) -> None:
+    path = _write(tmp_path, "bad.toml", MINIMAL.replace(*change))
+    with pytest.raises(SceneError, match=message) as info:
+        load_scene(path)
+    assert info.value.key == key
+    assert str(path) in str(info.value)
+
+
+def test_other_scene_errors(tmp_path: Path) -> None:
+    with pytest.raises(SceneError, match="cannot parse"):
+        load_scene(_write(tmp_path, "broken.toml", "[seabed\ndepth_m = 1"))
+    with pytest.raises(SceneError, match="not a built-in scene"):
+        load_scene("no-such-scene")
+    with pytest.raises(SceneError, match="not found"):
+        load_scene(tmp_path / "missing.toml")
+    with pytest.raises(SceneError, match="unknown material 'kryptonite'"):
+        text = MINIMAL.replace('shape = "box"', 'shape = "box"\nmaterial = "kryptonite"')
+        load_scene(_write(tmp_path, "mat.toml", text))
+    dup = MINIMAL + MINIMAL.split("[viewpoint]")[0].split("[[targets]]")[1].join(["[[targets]]", ""])
+    with pytest.raises(SceneError, match="duplicate target id 'a'"):
+        load_scene(_write(tmp_path, "dup.toml", dup))
+    _write(tmp_path, "x.toml", 'include = ["y.toml"]\n' + MINIMAL)
+    _write(tmp_path, "y.toml", 'include = ["x.toml"]\n')
+    with pytest.raises(SceneError, match="include cycle"):
+        load_scene(tmp_path / "x.toml")
+    with pytest.raises(SceneError, match="no \\[viewpoint\\]"):
+        load_scene(_write(tmp_path, "noview.toml", MINIMAL.split("[viewpoint]")[0]))
+    with pytest.raises(SceneError, match="gentle"):
+        load_scene(_write(tmp_path, "steep.toml", MINIMAL.replace(
+            "depth_m = 5.0", "depth_m = 5.0\nrelief = { amplitude_m = 1.0, wavelength_m = 1.0 }")))

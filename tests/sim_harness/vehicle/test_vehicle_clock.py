@@ -1,0 +1,196 @@
+"""SimClock: lockstep participants, predicate waits, stop, pacing, determinism."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+from sim_harness.clock import SimClock
+from sim_harness.errors import ClockStopped, LockstepStall, SimConfigError
+from sim_harness.simulator import VehicleConfig, VehicleSimulator
+
+STEP_S = 0.01
+#: Wall seconds we watch a blocked simulator to see that it does not advance.
+OBSERVE_WALL_S = 0.2
+
+
+def _run_sim(clock: SimClock, until_s: float) -> threading.Thread:
+    def loop() -> None:
+        t = clock.now_s()
+        try:
+            while t < until_s:
+                t = round(t + STEP_S, 9)
+                clock.advance_to(t)
+        except ClockStopped:
+            pass
+
+    th = threading.Thread(target=loop, daemon=True)
+    th.start()
+    return th
+
+
+def test_participant_sees_exactly_the_time_it_slept():
+    clock = SimClock()
+    seen = []
+    with clock.participant("controller"):
+        sim = _run_sim(clock, 100.0)
+        for _ in range(50):
+            before = clock.now_s()
+            clock.sleep_s(0.05)
+            seen.append(clock.now_s() - before)
+    clock.stop()
+    sim.join(5.0)
+    # Lockstep: the simulator never runs past the sleeper's deadline by more than one step.
+    assert all(0.05 - 1e-9 <= d <= 0.05 + STEP_S + 1e-9 for d in seen)
+
+
+def test_simulator_waits_while_a_participant_works():
+    clock = SimClock()
+    clock.register("worker")
+    sim = _run_sim(clock, 100.0)
+    t0 = clock.now_s()
+    # While registered and not waiting, no simulated time passes, however long we take.
+    done = threading.Event()
+    done.wait(OBSERVE_WALL_S)
+    assert clock.now_s() == t0
+    clock.unregister()
+    assert clock.wait_for(lambda: clock.now_s() >= 1.0, timeout_s=10.0)
+    clock.stop()
+    sim.join(5.0)
+
+
+def test_wait_for_wakes_on_notify_before_its_timeout():
+    clock = SimClock()
+    flag = {"set": False}
+    result = {}
+    with clock.participant("controller"):
+        sim = _run_sim(clock, 1000.0)
+
+        def setter() -> None:
+            clock.sleep_until(2.0)  # a non-participant waiting on simulated time
+            flag["set"] = True
+            clock.notify()
+
+        th = threading.Thread(target=setter, daemon=True)
+        th.start()
+        result["ok"] = clock.wait_for(lambda: flag["set"], timeout_s=50.0)
+        result["t"] = clock.now_s()
+    clock.stop()
+    sim.join(5.0)
+    th.join(5.0)
+    assert result["ok"] is True
+    assert 2.0 <= result["t"] < 50.0
+
+
+def test_wait_for_times_out_in_simulated_time():
+    clock = SimClock()
+    with clock.participant():
+        sim = _run_sim(clock, 100.0)
+        assert clock.wait_for(lambda: False, timeout_s=3.0) is False
+        assert 3.0 <= clock.now_s() <= 3.0 + STEP_S + 1e-9
+    clock.stop()
+    sim.join(5.0)
+
+
+def test_stop_wakes_waiters_with_clock_stopped():
+    clock = SimClock()
+    errors = []
+
+    def waiter() -> None:
+        try:
+            clock.sleep_s(10.0)
+        except ClockStopped as exc:
+            errors.append(exc)
+
+    th = threading.Thread(target=waiter, daemon=True)
+    th.start()
+    clock.stop()
+    th.join(5.0)
+    assert len(errors) == 1
+    with pytest.raises(ClockStopped):
+        clock.advance_to(1.0)
+
+
+def test_stall_is_reported_with_the_participant_name():
+    clock = SimClock(stall_timeout_s=0.05)
+    clock.register("busy-controller")
+    with pytest.raises(LockstepStall) as info:
+        clock.advance_to(0.01)
+    assert info.value.participants == ("busy-controller",)
+    clock.unregister()
+
+
+def test_bad_arguments_are_refused():
+    with pytest.raises(SimConfigError):
+        SimClock(speedup=0.0)
+    clock = SimClock(start_s=5.0)
+    with pytest.raises(ValueError):
+        clock.advance_to(4.0)
+    with pytest.raises(ValueError):
+        clock.sleep_s(-1.0)
+
+
+def test_paced_clock_still_advances_to_the_target():
+    clock = SimClock(speedup=200.0)
+    for k in range(1, 6):
+        clock.advance_to(k * 0.02)
+    assert clock.now_s() == pytest.approx(0.1)
+
+
+def test_same_seed_same_trajectory():
+    def trajectory(seed: int) -> list[tuple[float, ...]]:
+        sim = VehicleSimulator(config=VehicleConfig(seed=seed, start_depth_m=3.0))
+        ap = sim.autopilot
+        sim.run_for(0.1)
+        ap.arm(force=True)
+        ap.set_mode(4)  # GUIDED
+        assert ap.set_guided_target(6.0, -3.0, 5.0)
+        out = []
+        for _ in range(20):
+            sim.run_for(1.0)
+            t = sim.truth()
+            out.append((t.north_m, t.east_m, t.depth_m, t.yaw_rad))
+        return out
+
+    a, b, c = trajectory(7), trajectory(7), trajectory(8)
+    assert a == b
+    assert a != c
+
+
+def test_a_gcs_driven_dive_is_repeatable_in_lockstep():
+    import math
+
+    from sim_harness.autopilot.autopilot import Mode
+    from tests.sim_harness.autopilot.gcs_peer import M, running_vehicle
+
+    def dive() -> tuple[list[tuple[float, ...]], list[tuple[str, float]]]:
+        with running_vehicle(config=VehicleConfig(start_depth_m=2.0, seed=5)) as (sim, gcs):
+            gcs.set_mode(int(Mode.GUIDED))
+            gcs.arm()
+            gcs.mav.set_position_target_local_ned_send(
+                0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0b100111111000, 5.0, 3.0, 4.0, 0, 0, 0, 0, 0,
+                0, math.radians(30.0), 0)
+            msgs = gcs.run_for(10.0)
+            received = [(m.get_type(), m.time_boot_ms / 1000.0) for m in msgs
+                        if m.get_type() == "ATTITUDE"]
+            truth = [(t.time_s, t.north_m, t.east_m, t.depth_m, t.yaw_rad)
+                     for t in sim.truth_history()]
+        return truth, received
+
+    first, second = dive(), dive()
+    assert first == second
+
+
+def test_polling_wait_sees_a_condition_within_one_poll_interval():
+    clock = SimClock()
+    with clock.participant():
+        sim = _run_sim(clock, 100.0)
+        got = clock.wait_for(lambda: clock.now_s() >= 1.234, timeout_s=10.0, poll_s=0.05)
+        t = clock.now_s()
+        assert got is True
+        assert 1.234 <= t <= 1.234 + 0.05 + STEP_S + 1e-9
+        with pytest.raises(ValueError, match="poll_s"):
+            clock.wait_for(lambda: True, 1.0, poll_s=0.0)
+    clock.stop()
+    sim.join(5.0)

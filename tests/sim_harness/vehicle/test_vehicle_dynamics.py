@@ -1,0 +1,92 @@
+"""Vehicle model: numpy and casadi agree; physical facts of thrust, drag, buoyancy, current."""
+
+from __future__ import annotations
+
+import math
+
+import casadi
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sim_harness.errors import SimConfigError
+from sim_harness.vehicle.dynamics import (
+    MountLimits,
+    RovParams,
+    UniformCurrent,
+    derivative,
+    derivative_casadi,
+    slew_tilt,
+    step_rk4,
+)
+
+P = RovParams()
+finite = st.floats(-3.0, 3.0, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(finite, min_size=8, max_size=8), st.lists(finite, min_size=4, max_size=4),
+       st.lists(finite, min_size=3, max_size=3))
+def test_numpy_and_casadi_models_agree(state, thrust_frac, current):
+    thrust = np.array(thrust_frac) / 3.0 * np.array(P.thrust_limits)  # within limits
+    x = casadi.SX.sym("x", 8)
+    u = casadi.SX.sym("u", 4)
+    c = casadi.SX.sym("c", 3)
+    f = casadi.Function("f", [x, u, c], [derivative_casadi(x, u, c, P)])
+    expected = derivative(np.array(state), thrust, np.array(current), P)
+    got = np.array(f(state, thrust, current)).ravel()
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
+
+
+def _steady(thrust, current=(0.0, 0.0, 0.0), seconds=60.0):
+    x = (0.0, 0.0, 10.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    for _ in range(int(seconds / 0.02)):
+        x = step_rk4(x, thrust, current, 0.02, P)
+    return x
+
+
+def test_full_surge_reaches_the_speed_where_thrust_equals_drag():
+    x = _steady((P.max_surge_n, 0.0, P.net_buoyancy_n, 0.0))
+    u = x[4]
+    assert P.drag_lin_surge * u + P.drag_quad_surge * u * u == pytest.approx(P.max_surge_n, rel=1e-3)
+    # Thrust beyond the limit is clipped: the same top speed.
+    x2 = _steady((10 * P.max_surge_n, 0.0, P.net_buoyancy_n, 0.0))
+    assert x2[4] == pytest.approx(u, rel=1e-9)
+
+
+def test_unpowered_vehicle_floats_up_and_drifts_with_the_current():
+    x = _steady((0.0, 0.0, 0.0, 0.0), current=(0.3, -0.1, 0.0), seconds=60.0)
+    assert x[6] < 0.0  # rising (down velocity negative)
+    assert x[2] < 10.0
+    # After a minute it moves with the water.
+    assert x[4] == pytest.approx(0.3, abs=1e-3)
+    assert x[5] == pytest.approx(-0.1, abs=1e-3)
+
+
+def test_yaw_rate_turns_the_body_velocity_into_the_ned_frame():
+    x = (0.0, 0.0, 5.0, math.pi / 2, 1.0, 0.0, 0.0, 0.0)  # facing east, moving forward
+    d = derivative(np.array(x), np.zeros(4), np.zeros(3), P)
+    assert d[0] == pytest.approx(0.0, abs=1e-12)
+    assert d[1] == pytest.approx(1.0)
+
+
+def test_mount_slews_at_its_rate_and_stops_at_its_limit():
+    lim = MountLimits(max_rate_rad_s=math.radians(10.0))
+    tilt = 0.0
+    for _ in range(50):  # 1 s
+        tilt = slew_tilt(tilt, math.radians(200.0), 0.02, lim)
+    assert tilt == pytest.approx(math.radians(10.0))
+    for _ in range(2000):
+        tilt = slew_tilt(tilt, math.radians(200.0), 0.02, lim)
+    assert tilt == pytest.approx(lim.max_tilt_rad)
+
+
+def test_bad_shapes_and_params_are_refused():
+    with pytest.raises(ValueError, match="state"):
+        derivative(np.zeros(7), np.zeros(4), np.zeros(3))
+    with pytest.raises(SimConfigError, match="mass_surge_kg"):
+        RovParams(mass_surge_kg=0.0)
+    with pytest.raises(SimConfigError):
+        MountLimits(min_tilt_rad=1.0, max_tilt_rad=0.5)
+    assert UniformCurrent(0.1).velocity_ned_m_s(0, 0, 0, 0) == (0.1, 0.0, 0.0)
