@@ -44,7 +44,7 @@ from sim_harness.sonar.viewpoint import choose_tilt_rad
 from sim_harness.world.texture import SeabedTexture
 from sim_harness.world.world import Seabed, TargetSpec, World
 
-TABLES = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "paper_tables.json"
+TABLES = Path(__file__).resolve().parent.parent / "tests" / "data" / "paper_tables.json"
 PAPER_ALTITUDES_M = (0.5, 0.6)
 AZIMUTH_MATCH_RAD = math.radians(2.5)
 

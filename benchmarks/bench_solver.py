@@ -20,7 +20,7 @@ import numpy as np
 
 from perception.heights.solver import ShadowObservation, eq2_paper, solve_height, solve_height_batch
 
-TABLES = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "paper_tables.json"
+TABLES = Path(__file__).resolve().parent.parent / "tests" / "data" / "paper_tables.json"
 SAMPLE_M = 5.0 / 2000
 DH_ORDER = np.array([0.0, 0.8, 0.4, 0.2, 0.6, 0.1, 0.7, 0.3, 0.5, 0.05, 0.75, 0.15, 0.65, 0.25])
 DH_ORDER = np.concatenate([DH_ORDER, [0.45, 0.35]])
@@ -29,7 +29,7 @@ TRIALS = 1000
 
 def _table_iii() -> list[str]:
     if not TABLES.is_file():
-        return [f"(Table III skipped: {TABLES} not found; it sits in ../shared beside the repo)"]
+        return [f"(Table III skipped: {TABLES} not found; it ships in tests/data)"]
     rows = json.loads(TABLES.read_text(encoding="utf-8"))["table_III_rows"]
     worst, mismatched = 0.0, []
     for row in rows:

@@ -1,4 +1,4 @@
-"""Shared fixtures: the ../shared folder and a seeded random generator.
+"""Shared fixtures: the shipped test data and a seeded random generator.
 
 The whole test session speaks MAVLink 2: pymavlink's ``mavutil`` picks its dialect module
 when first imported and some of its helpers (``mavwp``) re-read the MAVLINK20 variable
@@ -18,15 +18,13 @@ import numpy as np
 import pytest
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
-SHARED_DIR = REPO_ROOT.parent / "shared"
+DATA_DIR = REPO_ROOT / "tests" / "data"
 
 
 @pytest.fixture(scope="session")
-def shared_dir() -> Path:
-    """Path of ``../shared`` beside the checkout (CI has it there)."""
-    if not SHARED_DIR.is_dir():
-        pytest.fail(f"../shared not found beside the checkout at {SHARED_DIR}")
-    return SHARED_DIR
+def data_dir() -> Path:
+    """Path of ``tests/data``: the real ARIS sample and the paper's tables (see its README)."""
+    return DATA_DIR
 
 
 @pytest.fixture

@@ -21,7 +21,7 @@ from perception.shadows.segmentation.segment import as_levels
 from perception.sonar_io.frame import SonarFrame
 
 if TYPE_CHECKING:
-    from perception.heights.pipeline import HeightsConfig
+    from perception.heights.config import HeightsConfig
 
 
 @dataclass(frozen=True)

@@ -161,7 +161,7 @@ class SonarConfig:
     speckle_looks : float
         Looks of the gamma speckle (mean 1, CV ``1/sqrt(looks)``); 0 turns speckle off. The
         default, 1 (fully developed speckle), gives the grain of the real ARIS recording in
-        ``../shared/data/aris/sample.aris`` (local CV of the uint8 samples ~0.15).
+        ``tests/data/aris/sample.aris`` (local CV of the uint8 samples ~0.15).
     noise_floor_db : float or None
         Mean display power of the additive noise, dB; None for no noise.
     target_ray_step_rad : float

@@ -17,7 +17,7 @@ from perception.shadows.pairing.pair import Pair
 from perception.shadows.segmentation.segment import Segmentation
 
 if TYPE_CHECKING:
-    from perception.shadows.measurement.measure import MeasureConfig
+    from perception.shadows.measurement.config import MeasureConfig
 
 #: Extra samples of the echo before a shadow's first row read for its top edge.
 EDGE_MARGIN_SAMPLES = 8

@@ -16,7 +16,7 @@ from perception.shadows.segmentation.grid import Region, clean_mask, components
 from perception.shadows.segmentation.levels import Levels
 
 if TYPE_CHECKING:
-    from perception.shadows.segmentation.segment import SegmentationConfig
+    from perception.shadows.segmentation.config import SegmentationConfig
 
 
 def classical_regions(

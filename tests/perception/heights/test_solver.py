@@ -35,22 +35,22 @@ TABLE_III_ROWS += ["5", "5*", "5-S"]
 INCONSISTENT_ROW = "2-S"
 
 
-def _tables(shared_dir: Path) -> dict[str, Any]:
-    with open(shared_dir / "data" / "paper_tables.json", encoding="utf-8") as f:
+def _tables(data_dir: Path) -> dict[str, Any]:
+    with open(data_dir / "paper_tables.json", encoding="utf-8") as f:
         data: dict[str, Any] = json.load(f)
     return data
 
 
-def _row(shared_dir: Path, name: str) -> dict[str, Any]:
-    rows = {r["row"]: r for r in _tables(shared_dir)["table_III_rows"]}
+def _row(data_dir: Path, name: str) -> dict[str, Any]:
+    rows = {r["row"]: r for r in _tables(data_dir)["table_III_rows"]}
     return rows[name]
 
 
 # --- Eq. 2 on the paper's Table III ------------------------------------------------------
 
 
-def test_table_iii_lists_every_row(shared_dir: Path) -> None:
-    tables = _tables(shared_dir)
+def test_table_iii_lists_every_row(data_dir: Path) -> None:
+    tables = _tables(data_dir)
     assert [r["row"] for r in tables["table_III_rows"]] == TABLE_III_ROWS
     assert tables["delta_h_m"] == 0.1
     for r in tables["table_III_rows"]:
@@ -63,14 +63,14 @@ def test_table_iii_lists_every_row(shared_dir: Path) -> None:
 
 
 @pytest.mark.parametrize("name", [n for n in TABLE_III_ROWS if n != INCONSISTENT_ROW])
-def test_eq2_reproduces_table_iii(shared_dir: Path, name: str) -> None:
+def test_eq2_reproduces_table_iii(data_dir: Path, name: str) -> None:
     """Eq. 2 as published, R and L in pixels, dH = 0.10 m, gives the Est. column.
 
     Image 2 is the higher altitude (shorter shadow, L2 < L1); Eq. 2's denominator makes
     ``delta_h`` the first altitude minus the second, so with ``+0.10`` it returns ``-h``
     and the table prints ``|h|``; with ``-0.10`` (= H1 - H2) it returns ``+h``.
     """
-    row = _row(shared_dir, name)
+    row = _row(data_dir, name)
     args = (row["R1"], row["L1"], row["R2"], row["L2"])
     h_cm = 100.0 * eq2_paper(*args, delta_h=-0.10)
     assert h_cm > 0
@@ -78,7 +78,7 @@ def test_eq2_reproduces_table_iii(shared_dir: Path, name: str) -> None:
     assert abs(h_cm - row["est_cm"]) <= 0.001 + 1e-9
 
 
-def test_eq2_row_2s_is_inconsistent_in_the_paper(shared_dir: Path) -> None:
+def test_eq2_row_2s_is_inconsistent_in_the_paper(data_dir: Path) -> None:
     """Row 2-S: the printed R/L give 3.389 cm, the table prints 3.500 cm.
 
     The printed Est. (3.500) and Error (+0.400 = GT 3.9 - 3.500) agree with each other, so
@@ -87,7 +87,7 @@ def test_eq2_row_2s_is_inconsistent_in_the_paper(shared_dir: Path) -> None:
     every single-number change of the four inputs (integers 1..999) shows exactly one that
     yields 3.500 cm: R1 = 496 instead of 493, most likely a transcription slip (3 vs 6).
     """
-    row = _row(shared_dir, INCONSISTENT_ROW)
+    row = _row(data_dir, INCONSISTENT_ROW)
     printed = [row["R1"], row["L1"], row["R2"], row["L2"]]
     r1, l1, r2, l2 = printed
     h_cm = 100.0 * eq2_paper(r1, l1, r2, l2, -0.10)

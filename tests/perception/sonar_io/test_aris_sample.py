@@ -1,4 +1,4 @@
-"""Known answers on the SDK's real recording ../shared/data/aris/sample.aris (its README)."""
+"""Known answers on the SDK's real recording tests/data/aris/sample.aris (tests/data/README.md)."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from perception.sonar_io.beams import load_beam_table
 
 
 @pytest.fixture(scope="module")
-def sample_path(shared_dir):
-    return shared_dir / "data" / "aris" / "sample.aris"
+def sample_path(data_dir):
+    return data_dir / "aris" / "sample.aris"
 
 
 @pytest.fixture

@@ -144,8 +144,8 @@ def test_write_read_round_trip(tmp_path, case):
             assert abs(diff) < 1e-5
 
 
-def test_rewriting_sample_recording_keeps_samples_and_geometry(shared_dir, tmp_path):
-    source = shared_dir / "data" / "aris" / "sample.aris"
+def test_rewriting_sample_recording_keeps_samples_and_geometry(data_dir, tmp_path):
+    source = data_dir / "aris" / "sample.aris"
     with ArisRecording(source) as rec:
         frames = list(rec)
     path = write_aris(tmp_path / "copy.aris", frames, system_type=2, telephoto=True)

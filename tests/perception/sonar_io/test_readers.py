@@ -18,8 +18,8 @@ from perception.sonar_io.readers import DESCRIBE_MAX_FRAMES, Recording, open_rec
 
 
 @pytest.fixture
-def sample(shared_dir):
-    return shared_dir / "data" / "aris" / "sample.aris"
+def sample(data_dir):
+    return data_dir / "aris" / "sample.aris"
 
 
 def frames_128(rng, n, *, altitude=math.nan, dt_s=0.1):

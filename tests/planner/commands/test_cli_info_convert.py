@@ -18,8 +18,8 @@ from planner.errors import UsageError
 
 
 @pytest.fixture
-def sample(shared_dir):
-    return shared_dir / "data" / "aris" / "sample.aris"
+def sample(data_dir):
+    return data_dir / "aris" / "sample.aris"
 
 
 def test_info_text(sample, capsys):

@@ -140,7 +140,7 @@ def test_bad_input_exits_2_naming_the_file(
     assert code == 2 and str(broken) in err
 
 
-def test_shipped_paper_tank_example(shared_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_shipped_paper_tank_example(data_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
     # The README's example: two rendered frames of the paper's tank, 0.5 and 0.6 m up.
     examples = Path(__file__).resolve().parents[3] / "planner" / "data" / "examples"
     files = [str(examples / "paper_tank_0.50m.npz"), str(examples / "paper_tank_0.60m.npz")]
@@ -148,7 +148,7 @@ def test_shipped_paper_tank_example(shared_dir: Path, capsys: pytest.CaptureFixt
     assert code == 0, err
     doc = json.loads(out)
     assert doc["delta_h_m"] == pytest.approx([0.0, 0.1])
-    table_i = json.loads((shared_dir / "data" / "paper_tables.json").read_text())["table_I_targets_cm"]
+    table_i = json.loads((data_dir / "paper_tables.json").read_text())["table_I_targets_cm"]
     truth_m = sorted(t["H"] / 100 for t in table_i)
     found_m = sorted(t["height_m"] for t in doc["targets"])
     assert found_m == pytest.approx(truth_m, abs=0.0015)

@@ -35,8 +35,8 @@ def _write(tmp_path: Path, name: str, text: str) -> Path:
     return path
 
 
-def test_paper_tank_holds_table_one(shared_dir: Path) -> None:
-    tables = json.loads((shared_dir / "data" / "paper_tables.json").read_text())
+def test_paper_tank_holds_table_one(data_dir: Path) -> None:
+    tables = json.loads((data_dir / "paper_tables.json").read_text())
     scene = load_scene("paper-tank")
     assert scene.world.seabed_depth_m(0.0, 0.0) == pytest.approx(tables["table_I_tank"]["water_depth_cm"] / 100)
     specs = {t.target_id: t for t in scene.world.targets}
