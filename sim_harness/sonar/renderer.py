@@ -21,11 +21,19 @@ Pipeline per frame (geometry in :mod:`sim_harness.sonar.geometry`, the seabed in
    the absorption when ``tvg_absorption``);
 4. range blur by the pulse (Gaussian, FWHM = c * pulse / 2) and leakage into neighbouring
    beams (side lobes, ``sidelobe_db`` for neighbours 1, 2, 3, ...);
-5. multiplicative speckle, gamma distributed with ``speckle_looks`` looks and mean 1, and
-   an additive noise floor (exponential power of mean ``noise_floor_db``);
-6. 0-80 dB mapped linearly to 0-255, as the ARIS SDK documents (``understanding-aris-data``:
-   "sample values 0-255 map to an acoustic signal in the range 0-80 dB"), i.e.
-   ``uint8 = clip(round(10 log10(power) * 255 / 80), 0, 255)`` with power in display units.
+5. multiplicative speckle, gamma distributed with ``speckle_looks`` looks and mean 1 (times
+   a gamma texture for K-distributed power when ``physics.speckle_texture_shape`` is finite),
+   and an additive noise floor (exponential power of mean ``noise_floor_db``); near-range
+   blanking (``physics.blank_range_m``);
+6. by default 0-80 dB mapped linearly to 0-255, as the ARIS SDK documents
+   (``understanding-aris-data``: "sample values 0-255 map to an acoustic signal in the range
+   0-80 dB"), i.e. ``uint8 = clip(round(10 log10(power) * 255 / 80), 0, 255)`` with power in
+   display units; ``physics.output`` chooses uint16 or float32 amplitude or power instead
+   (:mod:`sim_harness.sonar.receiver`).
+
+Every physical choice besides the geometry is a parameter: the fields below and
+:class:`~sim_harness.sonar.physics.SonarPhysics` (``config.physics``), whose defaults are the
+historical choices; :mod:`sim_harness.sonar.family` draws members of the family.
 
 Determinism: the noise of a frame depends only on ``config.seed`` and the frame's
 ``timestamp_s`` (its float64 bit pattern seeds the offsets into two seeded banks of
@@ -48,6 +56,8 @@ import numpy as np
 from perception.sonar_io.beams import aris3000_128
 from perception.sonar_io.frame import SonarFrame
 from sim_harness.sonar.geometry import pose_geometry, target_table
+from sim_harness.sonar.physics import SonarPhysics, sinc_kernel
+from sim_harness.sonar.receiver import NoiseBanks, blank_near_rows, power_to_image
 from sim_harness.sonar.seabed import seabed_branches
 from sim_harness.sonar.targets import (
     Sampling,
@@ -172,6 +182,9 @@ class SonarConfig:
         Whether frames report the (true) altitude as an altimeter would.
     noise_bank_size : int
         Variates in each seeded noise bank (>= 2 x samples x beams).
+    physics : SonarPhysics
+        The other physical choices (speckle texture, beam patterns, backscatter laws,
+        blanking, output form); the default is the historical renderer.
     """
 
     beam_azimuth_rad: tuple[float, ...] = field(default_factory=_aris_azimuths)
@@ -196,6 +209,7 @@ class SonarConfig:
     seed: int = 0
     fill_altitude: bool = True
     noise_bank_size: int = 1 << 21
+    physics: SonarPhysics = field(default_factory=SonarPhysics)
 
     def __post_init__(self) -> None:
         az = np.asarray(self.beam_azimuth_rad, dtype=np.float64)
@@ -238,6 +252,8 @@ class SonarConfig:
             raise SonarConfigError("side lobes must be finite and <= 0 dB", key="sidelobe_db")
         if self.noise_bank_size < 2 * self.samples_per_beam * az.size:
             raise SonarConfigError("must be >= 2 x samples_per_beam x beams", key="noise_bank_size")
+        if not isinstance(self.physics, SonarPhysics):
+            raise SonarConfigError(f"must be a SonarPhysics, got {type(self.physics).__name__}", key="physics")
 
     @property
     def n_beams(self) -> int:
@@ -274,7 +290,8 @@ class RenderLayers:
     """Intermediate products of one render, arrays of shape (n_samples, n_beams).
 
     ``clean_power``: display-linear power before speckle and noise (float32);
-    ``power``: after speckle and noise; ``image``: uint8 (0-80 dB); ``seabed_span_rad``:
+    ``power``: after speckle, noise and blanking; ``image``: the output image (uint8, 0-80
+    dB, by default; ``config.physics.output``); ``seabed_span_rad``:
     total seabed elevation span inside the aperture per cell; ``labels``/``owner``: as in
     :class:`~sim_harness.sonar.truth.FrameTruth`.
     """
@@ -310,17 +327,6 @@ def validate_pose(world: World, pose: SonarPose) -> float:
             field="depth_m",
         )
     return float(seabed)
-
-
-def power_to_uint8(power: np.ndarray) -> np.ndarray:
-    """Display power (linear, 1 = 0 dB) to ARIS sample values: 0-80 dB -> 0-255, saturating.
-
-    ``round(10 log10(power) * 255 / 80)`` clipped to [0, 255]; powers below 1 give 0.
-    """
-    p = np.asarray(power, dtype=np.float32)
-    log = cv2.log(np.maximum(p, np.float32(1.0)))
-    scale = 10.0 / math.log(10.0) * 255.0 / 80.0
-    return np.asarray(cv2.convertScaleAbs(log, alpha=scale), dtype=np.uint8)
 
 
 def _gaussian_kernel(sigma: float) -> np.ndarray:
@@ -370,17 +376,16 @@ class SonarRenderer:
         self._footprint = (footprint_m * self._row_gain).astype(np.float32)
         fwhm_m = cfg.sound_speed_m_s * cfg.pulse_length_s / 2.0
         self._range_kernel = _gaussian_kernel(fwhm_m / 2.3548 / dr)
-        side = [10.0 ** (db / 10.0) for db in cfg.sidelobe_db]
-        self._beam_kernel = np.array(side[::-1] + [1.0] + side, dtype=np.float32)
-        bank_rng = np.random.default_rng([cfg.seed, 0x5EED])
-        n = int(cfg.noise_bank_size)
-        if cfg.speckle_looks > 0:
-            looks = float(cfg.speckle_looks)
-            self._speckle_bank = (bank_rng.standard_gamma(looks, n, dtype=np.float32) / np.float32(looks))
+        if cfg.physics.azimuth_pattern == "sinc":
+            self._beam_kernel = sinc_kernel(cfg.physics)
         else:
-            self._speckle_bank = np.ones(0, dtype=np.float32)
-        self._noise_bank = bank_rng.standard_exponential(n, dtype=np.float32)
-        self._noise_mean = 0.0 if cfg.noise_floor_db is None else 10.0 ** (cfg.noise_floor_db / 10.0)
+            side = [10.0 ** (db / 10.0) for db in cfg.sidelobe_db]
+            self._beam_kernel = np.array(side[::-1] + [1.0] + side, dtype=np.float32)
+        self._noise = NoiseBanks(
+            seed=cfg.seed, size=int(cfg.noise_bank_size), speckle_looks=cfg.speckle_looks,
+            texture_shape=cfg.physics.speckle_texture_shape,
+            noise_mean=0.0 if cfg.noise_floor_db is None else 10.0 ** (cfg.noise_floor_db / 10.0),
+        )
         self._targets = target_table(world)
         self._sampling = Sampling(
             n_samples=cfg.samples_per_beam,
@@ -394,6 +399,7 @@ class SonarRenderer:
             pattern_coeff=self._pattern_coeff,
             ray_step_rad=cfg.target_ray_step_rad,
             row_gain=self._row_gain,
+            physics=cfg.physics,
         )
 
     # ------------------------------------------------------------------ public API
@@ -480,6 +486,7 @@ class SonarRenderer:
             half_aperture_rad=self._half_ap,
             pattern_coeff=self._pattern_coeff,
             footprint=self._footprint,
+            physics=cfg.physics,
         )
         casts = cast_all(self.world, geo, self._sampling, self._targets)
         if casts:
@@ -528,8 +535,8 @@ class SonarRenderer:
         clean = cv2.sepFilter2D(
             raw, cv2.CV_32F, self._beam_kernel, self._range_kernel, borderType=cv2.BORDER_CONSTANT
         )
-        power = self._add_noise(clean, timestamp_s)
-        image = power_to_uint8(power)
+        power = blank_near_rows(self._noise.apply(clean, timestamp_s), self._range, cfg.physics.blank_range_m)
+        image = power_to_image(power, cfg.physics)
         truths = target_truths(geo, casts, runs, self._sampling)
         altitude = seabed_depth_m - pose.depth_m
         normal = -geo.c_vec / geo.c_norm
@@ -545,21 +552,3 @@ class SonarRenderer:
             altitude_normal_m=geo.height_v_m / geo.c_norm,
             seabed_normal_ned=normal,
         )
-
-    # ------------------------------------------------------------------ internals
-    def _add_noise(self, clean: np.ndarray, timestamp_s: float) -> np.ndarray:
-        cfg = self.config
-        size = clean.size
-        bits = int(np.array([timestamp_s], dtype=np.float64).view(np.uint64)[0])
-        rng = np.random.default_rng([cfg.seed, bits])
-        n = int(cfg.noise_bank_size)
-        if self._speckle_bank.size:  # a new array either way: ``clean`` is kept as a layer
-            o = int(rng.integers(0, n - size + 1))
-            out = np.multiply(clean, self._speckle_bank[o:o + size].reshape(clean.shape), dtype=np.float32)
-        else:
-            out = np.array(clean, dtype=np.float32)
-        if self._noise_mean > 0:
-            o = int(rng.integers(0, n - size + 1))
-            out += np.float32(self._noise_mean) * self._noise_bank[o:o + size].reshape(clean.shape)
-        return out
-

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim_harness.sonar.geometry import FloatArray, PoseGeometry, dot3
+from sim_harness.sonar.physics import SonarPhysics, elevation_gain, sigma_over_cos
 from sim_harness.world.texture import SeabedTexture
 from sim_harness.world.world import World
 
@@ -226,14 +227,22 @@ def seabed_branches(
     half_aperture_rad: float,
     pattern_coeff: float,
     footprint: np.ndarray,
+    physics: SonarPhysics | None = None,
 ) -> list[SeabedBranch]:
     """The seabed's echo per range cell and beam, per branch that reaches the aperture.
 
     ``pattern_coeff``: the elevation beam pattern is ``exp(pattern_coeff * (e / A)^2)`` inside
-    the half aperture ``A`` and zero outside; ``footprint`` (n_samples, n_beams) is the beam
-    width over r^2 of each cell times any per-row gain. Heavy arithmetic runs in float32.
+    the half aperture ``A`` and zero outside (``physics.elevation_pattern`` "gaussian"; with
+    "flat" the pattern of :func:`sim_harness.sonar.physics.elevation_gain` whose edge level is
+    ``pattern_coeff * 10 / ln 10`` dB); ``footprint`` (n_samples, n_beams) is the beam width
+    over r^2 of each cell times any per-row gain; ``physics`` (default: the historical
+    choices) also sets the backscatter law. Heavy arithmetic runs in float32.
     """
+    phys = physics if physics is not None else SonarPhysics()
     material = world.material(world.seabed.material)
+    historical_law = phys.seabed_lambert_exponent == 2.0 and (
+        material.roughness == 1.0 or (phys.specular_gain == 10.0 and phys.specular_width_rad == math.radians(12.0))
+    )
     relief = world.seabed.relief
     texture = world.seabed.texture
     dr = float(range_edges_m[1] - range_edges_m[0])
@@ -291,7 +300,11 @@ def seabed_branches(
             extra *= f32(0.5 / geo.c_norm)
             cos_inc += extra
             np.clip(cos_inc, f32(0.0), f32(1.0), out=cos_inc)
-        if half_aperture_rad <= 0.3:
+        if phys.elevation_pattern != "gaussian":
+            edge_db = pattern_coeff * 10.0 / math.log(10.0)
+            power = elevation_gain(mid, half_aperture_rad=half_aperture_rad, edge_db=edge_db, physics=phys)
+            power *= np.cos(mid)
+        elif half_aperture_rad <= 0.3:
             # beam pattern x cos(mid): cos(x) = exp(-x^2 / 2) to 2e-5 for |x| <= 0.15 rad
             m2 *= f32(pattern_coeff / half_aperture_rad**2 - 0.5)
             power = np.exp(m2, out=m2)
@@ -299,7 +312,11 @@ def seabed_branches(
             m2 *= f32(pattern_coeff / half_aperture_rad**2)
             power = np.exp(m2, out=m2)
             power *= np.cos(mid)
-        if material.roughness == 1.0:
+        if not historical_law:
+            law = sigma_over_cos(cos_inc, material.roughness, lambert_exponent=phys.seabed_lambert_exponent,
+                                 specular_gain=phys.specular_gain, specular_width_rad=phys.specular_width_rad)
+            power *= (law * 10.0 ** (material.backscatter_db / 10.0)).astype(f32)
+        elif material.roughness == 1.0:
             power *= cos_inc
             power *= f32(10.0 ** (material.backscatter_db / 10.0))
         else:

@@ -27,6 +27,7 @@ from sim_harness.sonar.geometry import (
     seabed_slant_m,
     target_table,
 )
+from sim_harness.sonar.physics import SonarPhysics, elevation_gain, sigma_over_cos
 from sim_harness.sonar.seabed import SeabedBranch
 from sim_harness.sonar.truth import TargetTruth
 from sim_harness.world.errors import SonarConfigError
@@ -50,7 +51,8 @@ class Sampling:
     ``azimuth_rad``/``beam_width_rad`` (n_beams,); ``row_gain`` (n_samples, 1) float32 display
     gain per range row; ``window_*`` the outer cell edges, m; ``pattern_coeff`` the elevation
     beam pattern ``exp(pattern_coeff * (e / half_aperture)^2)``; ``ray_step_rad`` the
-    elevation step of target rays.
+    elevation step of target rays; ``physics`` the renderer's physical choices (elevation
+    pattern shape, target backscatter law).
     """
 
     n_samples: int
@@ -64,6 +66,7 @@ class Sampling:
     pattern_coeff: float
     ray_step_rad: float
     row_gain: np.ndarray
+    physics: SonarPhysics = SonarPhysics()
 
 
 def cast_all(world: World, geo: PoseGeometry, sp: Sampling, table: TargetTable | None = None) -> list[TargetCast]:
@@ -306,19 +309,31 @@ def target_echo(
     kglob = k0[batch.target] - k_lo + batch.col
     visible = (batch.occluding & (batch.t <= best.ravel()[batch.beam * best.shape[1] + kglob])
                & (np.abs(batch.e) <= sp.half_aperture_rad))
+    phys = sp.physics
     mu = np.array([10.0 ** (world.material(c.placed.spec.material).backscatter_db / 10.0) for c in casts])
     rough = np.array([world.material(c.placed.spec.material).roughness for c in casts])
+    if phys.target_roughness is not None:
+        rough = np.full(len(casts), float(phys.target_roughness))
     is_rock = np.array([c.placed.spec.shape == "rock" for c in casts])
     v = np.nonzero(visible)[0]
     tv, ev, tg = batch.t[v], batch.e[v], batch.target[v]
     cos_inc = np.clip(batch.cos_incidence[v], 0.0, 1.0)
-    sigma = rough[tg] * cos_inc
-    if np.any(rough < 1.0):
-        theta = np.arccos(cos_inc)
-        spec = SPECULAR_GAIN * np.exp(-((theta / SPECULAR_WIDTH_RAD) ** 2)) / np.maximum(cos_inc, 1e-6)
-        sigma = sigma + (1.0 - rough[tg]) * spec
+    if phys.is_historical_target:
+        sigma = rough[tg] * cos_inc
+        if np.any(rough < 1.0):
+            theta = np.arccos(cos_inc)
+            spec = SPECULAR_GAIN * np.exp(-((theta / SPECULAR_WIDTH_RAD) ** 2)) / np.maximum(cos_inc, 1e-6)
+            sigma = sigma + (1.0 - rough[tg]) * spec
+    else:
+        sigma = sigma_over_cos(cos_inc, rough[tg], lambert_exponent=phys.target_lambert_exponent,
+                               specular_gain=phys.specular_gain, specular_width_rad=phys.specular_width_rad)
+    if phys.elevation_pattern == "gaussian":
+        pattern = np.exp(sp.pattern_coeff * (ev / sp.half_aperture_rad) ** 2)
+    else:
+        pattern = elevation_gain(ev, half_aperture_rad=sp.half_aperture_rad,
+                                 edge_db=sp.pattern_coeff * 10.0 / math.log(10.0), physics=phys)
     dr, step = sp.range_resolution_m, sp.ray_step_rad
-    p = (np.exp(sp.pattern_coeff * (ev / sp.half_aperture_rad) ** 2) * mu[tg] * sigma * np.cos(ev) * step
+    p = (pattern * mu[tg] * sigma * np.cos(ev) * step
          * sp.beam_width_rad[batch.beam[v]] / (tv * tv))
     cell_all = np.zeros(batch.t.size, dtype=np.int64)
     cell_all[v] = np.floor((tv - sp.window_start_m) / dr).astype(np.int64)

@@ -10,7 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
-from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer, power_to_uint8
+from sim_harness.sonar.receiver import power_to_uint8
+from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
 from sim_harness.sonar.scene import load_scene
 from sim_harness.sonar.seabed import arccos01_f32
 from sim_harness.sonar.truth import Label
