@@ -11,7 +11,8 @@ auto-window moves it when the altitude changes), the receiver gain and the outpu
   and rocks (irregular lobes) on request;
 - heights 2-30 cm, at most 0.35 x the lower altitude (a taller target's shadow cannot fit
   the 14 deg aperture); lengths 4-40 cm; widths 0.3-1 x the length;
-- yaw 0-90 deg to the beams;
+- yaw 0-90 deg to the beams; each target keeps to its own sector of the fan (with 0.5 deg
+  between), as two targets side by side at one range would cast one merged shadow;
 - materials of the world's table, or (``low_contrast_prob``) a material only 1-4 dB
   brighter than the seabed.
 
@@ -45,6 +46,10 @@ from sim_harness.world.world import MATERIALS, Material, Seabed, TargetSpec, Wor
 FRAME_OUTPUTS = ("uint8", "uint16_amplitude", "float32_power")
 #: Materials a target may be made of (low-contrast ones are added per scene).
 TARGET_MATERIALS = ("concrete", "rock", "brick", "wood", "plastic", "rubber", "metal", "glass", "gravel")
+#: Redraws of a target that would overlap another's sector of the fan.
+MAX_TRIES = 50
+#: Gap kept between targets' sectors of the fan, rad.
+SECTOR_MARGIN_RAD = math.radians(0.5)
 #: The paper's Table I targets (length, width, height), m, and their place in ``paper-tank``.
 PAPER_TARGETS = (
     ((0.19, 0.19, 0.028), (1.35, 0.0), "concrete"),
@@ -143,14 +148,21 @@ def draw_scene(
     names, extra = _materials(rng, n, low_contrast_prob, seabed_material)
     depth = altitudes[1] + 1.0
     depression_deg = float(rng.uniform(19.0, 36.0))
-    specs = []
+    specs: list[TargetSpec] = []
+    sectors: list[tuple[float, float]] = []
     for k, az_deg in enumerate(slots):
-        height = float(rng.uniform(0.02, min(0.30, 0.35 * altitude)))
-        ground = altitude / math.tan(math.radians(depression_deg + float(rng.uniform(-4.0, 4.0))))
-        length = float(rng.uniform(0.04, 0.40))
-        length = min(length, 0.1 * ground + 0.04)
-        width = length * float(rng.uniform(0.3, 1.0))
-        az = math.radians(float(az_deg) + float(rng.uniform(-2.0, 2.0)))
+        for _ in range(MAX_TRIES):
+            height = float(rng.uniform(0.02, min(0.30, 0.35 * altitude)))
+            ground = altitude / math.tan(math.radians(depression_deg + float(rng.uniform(-4.0, 4.0))))
+            length = float(rng.uniform(0.04, 0.40))
+            length = min(length, 0.1 * ground + 0.04)
+            width = length * float(rng.uniform(0.3, 1.0))
+            az = math.radians(float(az_deg) + float(rng.uniform(-2.0, 2.0)))
+            # Targets keep to their own sectors of the fan (their shadows would merge).
+            half = 0.5 * math.hypot(length, width) / ground + SECTOR_MARGIN_RAD
+            if all(az + half < lo or az - half > hi for lo, hi in sectors):
+                break
+        sectors.append((az - half, az + half))
         shape = str(rng.choice(list(shapes)))
         specs.append(TargetSpec(f"T{k}", shape, ground * math.cos(az), ground * math.sin(az), length, width,
                                 height, yaw_rad=math.radians(float(rng.uniform(0.0, 90.0))), material=names[k],

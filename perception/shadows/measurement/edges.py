@@ -1,31 +1,54 @@
-"""The shadow's start and end rows per beam, for all pairs' central beams at once
-(:mod:`perception.shadows.measurement.measure` combines them into measurements; see its docstring for the
-method)."""
+"""A shadow's start and end, and its target's near edge, per beam, to a fraction of a sample.
+
+For each pair (:mod:`perception.shadows.pairing.pair`) the beams through the middle of its
+shadow are read at full resolution, one beam each (no averaging across beams: an edge
+oblique to the beams would smear), as linear echo power:
+
+1. *Rough edges*, beam by beam, in the profile smoothed over ``smooth_m``: the levels
+   beside each edge are the means over ``level_m`` of the echo before the shadow, the
+   shadow's interior and the seabed after it (the detection grid says where each lies to a
+   grid step); the shadow's start is the last sample before its interior above the
+   geometric mean of the echo and shadow levels, its end the first sample after its
+   interior above the geometric mean of the shadow and seabed levels; likewise the
+   target's near edge (a highlight's start) from the seabed before it.
+2. *Cut beams*: where the seabed after the shadow does not stand ``cut_contrast_sigmas``
+   spreads above the shadow, the shadow runs into the dark beyond the band's far edge (or
+   the window's end) in that beam; where the echo before it does not, the shadow starts
+   in the dark before the band.
+3. *The fitted edge* of each pair: the beams' profiles are aligned on their rough edges
+   and averaged (speckle averages out; the alignment's own errors only widen the blur),
+   and a blurred step is fitted to the average (:func:`perception.shadows.measurement.stepfit.fit_steps`):
+   its edge is unbiased for any blur symmetric about the edge, however wide, and
+   whatever the levels (the midpoint of levels taken beside an edge is not, once the blur
+   reaches the windows). Each beam's edge is its rough edge plus the fitted offset.
+
+Rows are image rows (fractional); conversion to slant range is the caller's.
+"""
 
 from __future__ import annotations
 
-import functools
+import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, NamedTuple, cast
+from dataclasses import dataclass
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from perception.shadows.measurement.refine import clamp, cumsum0, neighbour_power, refine_shadow_rows
+from perception.shadows.measurement.config import MeasureConfig
+from perception.shadows.measurement.stepfit import fit_steps
 from perception.shadows.pairing.pair import Pair
-from perception.shadows.segmentation.segment import Segmentation
+from perception.shadows.segmentation.result import Segmentation
 
-if TYPE_CHECKING:
-    from perception.shadows.measurement.config import MeasureConfig
+FloatArray = NDArray[np.float64]
 
-#: Extra samples of the echo before a shadow's first row read for its top edge.
-EDGE_MARGIN_SAMPLES = 8
+#: Largest fitted half window, samples.
+MAX_FIT_HALF_SAMPLES = 48
+#: Starting blur of the step fit, samples.
+BLUR0_SAMPLES = 1.5
 
 
 def central_beams(columns: tuple[int, ...], fraction: float) -> list[int]:
-    """The middle ``fraction`` of a pair's beams (at least one), in order: the beams
-    measured (the outer ones cross the target's rounded or sloping sides)."""
+    """The middle ``fraction`` of a pair's beams (at least one), in order."""
     cols = sorted(columns)
     n = len(cols)
     keep = max(1, int(round(n * fraction)))
@@ -33,267 +56,266 @@ def central_beams(columns: tuple[int, ...], fraction: float) -> list[int]:
     return cols[start : start + keep]
 
 
-class Edges(NamedTuple):
-    """The edges found in the pairs' central beams, all pairs' beams in one array
-    (a named tuple: built once per frame, cheaper than a frozen dataclass).
+@dataclass(frozen=True)
+class PairEdges:
+    """The edges of one pair.
 
-    ``columns`` lists the beams with both edges, grouped by pair in the pairs' order:
-    ``counts[n]`` of them belong to pair ``n``; ``rows[0]`` and ``rows[1]`` hold their
-    shadow starts and ends (fractional rows). ``far_cut[n]`` is True when most of pair
-    ``n``'s beams are cut by the band's far edge.
+    Attributes
+    ----------
+    columns : tuple of int
+        The central beams with both edges (not cut).
+    top_rows, end_rows : ndarray, shape (len(columns),)
+        Fractional rows of the shadow's start and end in those beams.
+    near_rows : ndarray, shape (len(columns),)
+        Fractional row of the target's near edge (the highlight's start) in those beams,
+        NaN where the beam has no highlight.
+    top_std_rows, end_std_rows, near_std_rows : float
+        1-sigma of the pair's mean edges, rows (NaN when not measured).
+    blur_rows : float
+        Fitted blur of the shadow's start, rows.
+    n_central : int
+        Central beams looked at.
+    cut_near, cut_far : int
+        Central beams without echo before the shadow, without seabed after it.
+    echo_db, depth_db, seabed_db : float
+        Levels about the shadow (dB, relative): echo before its start over the shadow,
+        seabed after its end over the shadow, and the seabed after it over the echo before.
     """
 
-    columns: NDArray[np.intp]
-    rows: NDArray[np.float64]
-    counts: list[int]
-    far_cut: list[bool]
+    columns: tuple[int, ...]
+    top_rows: FloatArray
+    end_rows: FloatArray
+    near_rows: FloatArray
+    top_std_rows: float
+    end_std_rows: float
+    near_std_rows: float
+    blur_rows: float
+    n_central: int
+    cut_near: int
+    cut_far: int
+    echo_db: float
+    depth_db: float
+    seabed_db: float
 
 
-def no_edges(far_cut: list[bool]) -> Edges:
-    """The :class:`Edges` of pairs none of whose beams gave both edges."""
-    return Edges(np.zeros(0, dtype=np.intp), np.zeros((2, 0)), [0] * len(far_cut), far_cut)
+def _window_means(cum: FloatArray, start: NDArray[np.intp], stop: NDArray[np.intp]) -> FloatArray:
+    """Mean of each column of the values behind ``cum`` (cumulative sums with a zero row
+    first, shape (M + 1, n)) over its rows ``start .. stop - 1`` (clamped; NaN when empty)."""
+    m = cum.shape[0] - 1
+    a = np.clip(start, 0, m)
+    b = np.clip(stop, 0, m)
+    cols = np.arange(cum.shape[1])
+    total = cum[b, cols] - cum[a, cols]
+    count = b - a
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
+def _running_means(cum: FloatArray, length: int) -> FloatArray:
+    """Means of ``length`` consecutive rows starting at each row (fewer at the end), shape (M, n)."""
+    m = cum.shape[0] - 1
+    start = np.arange(m)
+    stop = np.minimum(start + length, m)
+    return (cum[stop] - cum[start]) / (stop - start)[:, None]
 
 
-def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> Edges:
-    """Fractional rows of the shadow start and end in each pair's central beams.
+def _last_at_least(q: FloatArray, level: FloatArray, start: NDArray[np.intp], stop: NDArray[np.intp]) -> FloatArray:
+    """Per column, the last row in ``start .. stop - 1`` where ``q >= level`` (NaN: none)."""
+    rows = np.arange(q.shape[0])[:, None]
+    hit = (q >= level[None, :]) & (rows >= start[None, :]) & (rows < stop[None, :])
+    found = hit.any(axis=0)
+    last = q.shape[0] - 1 - hit[::-1].argmax(axis=0)
+    return np.where(found, last, np.nan)
 
-    All pairs' beams are processed together, each beam in its own window of rows (from
-    before the target's highlight to the seabed after its shadow), as columns of one
-    block. Empty windows and dark levels give NaN and infinities, which the tests below
-    reject, so numpy's warnings about them are off here.
+
+def _first_at_least(q: FloatArray, level: FloatArray, start: NDArray[np.intp], stop: NDArray[np.intp]) -> FloatArray:
+    """Per column, the first row in ``start .. stop - 1`` where ``q >= level`` (NaN: none)."""
+    rows = np.arange(q.shape[0])[:, None]
+    hit = (q >= level[None, :]) & (rows >= start[None, :]) & (rows < stop[None, :])
+    found = hit.any(axis=0)
+    return np.where(found, hit.argmax(axis=0), np.nan)
+
+
+def _aligned_fit(
+    power: FloatArray,
+    anchor: FloatArray,
+    owner: NDArray[np.intp],
+    use: NDArray[np.bool_],
+    lower: NDArray[np.intp],
+    upper: NDArray[np.intp],
+    n_pairs: int,
+    half: int,
+    sign: float,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Average each pair's beam profiles about their rough edges and fit one step per pair.
+
+    ``power`` (M, n) profiles; ``anchor`` (n,) rough edges (rows of ``power``, NaN where
+    absent); ``use`` beams taking part; ``lower``/``upper`` each beam's usable rows
+    [lower, upper). Returns per pair the offset of the fitted edge from the beams'
+    ``floor(anchor)`` (rows; NaN when no fit), its 1-sigma and the fitted blur.
     """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return _edges_quiet(segmentation, pairs, cfg)
+    nan = np.full(n_pairs, np.nan)
+    ok = use & np.isfinite(anchor)
+    if not np.any(ok):
+        return nan, nan.copy(), nan.copy()
+    m_rows = power.shape[0]
+    base = np.floor(np.where(ok, anchor, 0.0)).astype(np.intp)
+    offsets = np.arange(-half, half + 1)
+    rows = base[None, :] + offsets[:, None]  # (2 half + 1, n)
+    valid = ok[None, :] & (rows >= np.maximum(lower, 0)[None, :]) & (rows < np.minimum(upper, m_rows)[None, :])
+    values = power[np.clip(rows, 0, m_rows - 1), np.arange(power.shape[1])[None, :]]
+    values = np.where(valid, values, 0.0)
+    sums = np.zeros((n_pairs, offsets.size))
+    counts = np.zeros((n_pairs, offsets.size))
+    np.add.at(sums, owner, values.T)
+    np.add.at(counts, owner, valid.T.astype(np.float64))
+    beams = np.bincount(owner[ok], minlength=n_pairs).astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(counts > 0, sums / np.maximum(counts, 1.0), 0.0)
+    weights = (counts >= 0.5 * np.maximum(beams, 1.0)[:, None]) & (beams[:, None] > 0)
+    has = weights.sum(axis=1) >= 5
+    if not np.any(has):
+        return nan, nan.copy(), nan.copy()
+    # The rough edge lies between base and base + 1 (anchors at half rows): start there.
+    start = np.full(int(np.count_nonzero(has)), half + 0.5)
+    fit = fit_steps(mean[has], weights[has].astype(np.float64), edge0=start, blur0=BLUR0_SAMPLES, sign=sign)
+    offset, std, blur = nan.copy(), nan.copy(), nan.copy()
+    good = np.flatnonzero(has)[fit.ok]
+    offset[good] = fit.edge[fit.ok] - half  # window index ``half`` is each beam's floor(anchor)
+    std[good] = fit.edge_std[fit.ok] / np.sqrt(np.maximum(beams[good], 1.0))
+    blur[good] = fit.blur[fit.ok]
+    return offset, std, blur
 
 
-def _last_true(
-    mask: NDArray[np.bool_], stop: int, cols: NDArray[np.intp]
-) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-    """Per column, the last row before ``stop`` where a mask holds, and whether any does.
-
-    ``mask`` holds that mask's rows reversed (its row i is row stop - 1 - i), so the
-    search runs forwards; ``cols`` is ``arange(mask.shape[1])``.
-    """
-    back = mask.argmax(axis=0)
-    return stop - 1 - back, mask[back, cols]
-
-
-def _first_true(
-    mask: NDArray[np.bool_], start: int, cols: NDArray[np.intp]
-) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-    """Per column, the first row where ``mask`` holds (counted from row ``start``), and whether any does.
-
-    ``cols`` is ``arange(mask.shape[1])``.
-    """
-    ahead = mask.argmax(axis=0)
-    return start + ahead, mask[ahead, cols]
-
-
-def _most(n_cut: NDArray[np.intp] | None, n_beams: NDArray[np.intp] | None, n_pairs: int) -> list[bool]:
-    """Per pair, whether most of its beams are cut (``n_cut`` None: none is)."""
-    if n_cut is None or n_beams is None:
-        return [False] * n_pairs
-    return [2 * c > b for c, b in zip(n_cut.tolist(), n_beams.tolist(), strict=True)]
-
-
-@functools.lru_cache(maxsize=8)
-def _bound_offsets(half: int, k_smooth: int, level_samples: int) -> NDArray[np.intp]:
-    """What :func:`_edges_quiet` adds to its stack of per-beam rows, shape (9, 1) (read-only).
-
-    Added to (s_first, s_last, s_last, s_last, s_first, s_last, s_first, middle, s_last)
-    they give sa, sb, ba, bb, the two candidates of the core, the two of the end
-    search's start, and its stop.
-    """
-    out = np.array([half, 1 - half, 1 + k_smooth, 1 + k_smooth + level_samples, k_smooth, 0, 0, 0, k_smooth + 2])
-    out.flags.writeable = False
-    return out[:, None]
-
-
-#: The least rows (eb, ea) of the echo before the far top edge (see :func:`_echo_offsets`).
-_ECHO_FIRST_ROWS = np.array([[1], [0]])
-_ECHO_FIRST_ROWS.flags.writeable = False
-
-
-@functools.lru_cache(maxsize=8)
-def _echo_offsets(k_smooth: int, level_samples: int) -> NDArray[np.intp]:
-    """What :func:`_edges_quiet` subtracts from the rough edge's row for the echo's rows (eb, ea), shape (2, 1)."""
-    out = np.array([[k_smooth], [k_smooth + level_samples]])
-    out.flags.writeable = False
+def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> list[PairEdges]:
+    """The edges of every pair of a frame (module docstring), all pairs' beams together."""
+    seg = segmentation
+    n_pairs = len(pairs)
+    n_rows = seg.n_rows
+    dr = seg.sample_m
+    d = seg.row_step
+    k = max(1, int(round(cfg.smooth_m / dr))) | 1
+    level_n = max(3, int(round(cfg.level_m / dr)))
+    half = int(min(MAX_FIT_HALF_SAMPLES, max(4, round(cfg.fit_half_window_m / dr))))
+    centrals = [central_beams(p.columns, cfg.central_fraction) for p in pairs]
+    counts = [len(c) for c in centrals]
+    beams = np.array([c for central in centrals for c in central], dtype=np.intp)
+    if beams.size == 0:
+        return [_empty(0) for _ in pairs]
+    owner = np.repeat(np.arange(n_pairs), counts)
+    s_label = np.repeat(np.array([p.shadow.label for p in pairs]), counts)
+    h_label = np.repeat(np.array([p.highlight.label if p.highlight is not None else -1 for p in pairs]), counts)
+    s_first = seg.shadow_rows[0][s_label, beams]
+    s_last = seg.shadow_rows[1][s_label, beams]
+    has_h = h_label >= 0
+    t_first = np.where(has_h, seg.highlight_rows[0][np.maximum(h_label, 0), beams], -1)
+    t_last = np.where(has_h, seg.highlight_rows[1][np.maximum(h_label, 0), beams], -1)
+    has_h &= t_first >= 0
+    present = s_last >= 0
+    s_first = np.where(present, s_first, 0)
+    s_last = np.where(present, s_last, 0)
+    reach = level_n + half + k + d
+    start_row = np.where(has_h, np.minimum(t_first, s_first), s_first) - reach - level_n
+    lo = np.maximum(start_row, 0)
+    hi = np.minimum(s_last + d + reach, n_rows)
+    length = int(np.max(hi - lo)) if hi.size else 0
+    rows = lo[None, :] + np.arange(max(length, 1))[:, None]
+    levels = seg.levels
+    taken = levels[np.minimum(rows, n_rows - 1), beams[None, :]]
+    power = seg.power_of(taken)
+    m_rows = power.shape[0]
+    cum = np.zeros((m_rows + 1, power.shape[1]))
+    np.cumsum(power, axis=0, out=cum[1:])
+    # The profiles smoothed over k rows centred on each row (fewer at the ends).
+    h = (k - 1) // 2
+    idx = np.arange(m_rows)
+    a_idx, b_idx = np.maximum(idx - h, 0), np.minimum(idx + h + 1, m_rows)
+    q = (cum[b_idx] - cum[a_idx]) / (b_idx - a_idx)[:, None]
+    # In local rows (of ``power``). The region's rows can hold more than the cast shadow:
+    # a target's dim top (seen at grazing incidence, or low-contrast), a few dB under the
+    # seabed, passes the segmentation's test as well. The shadow proper is where the echo
+    # falls to the shadow floor: below the geometric mean of the floor (the deepest mean
+    # over ``level_n`` rows of the region) and the row's seabed level.
+    sf, sl = s_first - lo, s_last - lo
+    half_level = max(2, level_n // 2)
+    run = _running_means(cum, half_level)  # run[i]: mean of rows i .. i + half_level - 1
+    local = np.arange(m_rows)[:, None]
+    in_region = (local >= sf[None, :] - d) & (local <= sl[None, :] + d - half_level + 1)
+    floor = np.where(in_region, run, np.inf).min(axis=0)
+    seabed_row = seg.power_of(np.asarray(seg.background, dtype=np.float32))
+    b_lin = seabed_row[np.minimum(rows, n_rows - 1)]
+    deep = (run < np.sqrt(floor[None, :] * b_lin)) & in_region
+    found = deep.any(axis=0)
+    deep_start = np.where(found, deep.argmax(axis=0), sf)
+    deep_end = np.where(found, m_rows - 1 - deep[::-1].argmax(axis=0) + half_level - 1, sl)
+    interior_a = deep_start + half_level
+    interior_b = np.maximum(deep_end - half_level + 1, interior_a + 1)
+    mid_shadow = (deep_start + deep_end) // 2
+    short = interior_b - interior_a < 2
+    interior_a = np.where(short, mid_shadow, interior_a)
+    interior_b = np.where(short, mid_shadow + 1, interior_b)
+    shadow_level = _window_means(cum, interior_a, interior_b)
+    echo_level = _window_means(cum, deep_start - d - level_n, deep_start - d)
+    f_a = deep_end + d + 1
+    seabed_level = _window_means(cum, f_a, f_a + level_n)
+    seabed_inside = (lo + f_a + level_n) <= n_rows
+    with np.errstate(invalid="ignore", divide="ignore"):
+        echo_db = 10.0 * np.log10(echo_level / shadow_level)
+        depth_db = 10.0 * np.log10(seabed_level / shadow_level)
+    cut_level_db = cfg.cut_contrast_sigmas * seg.sigma_db
+    dark_before = ~(echo_db >= cut_level_db)
+    dark_after = ~(depth_db >= cut_level_db) | ~seabed_inside
+    top_mid = np.sqrt(echo_level * shadow_level)
+    end_mid = np.sqrt(seabed_level * shadow_level)
+    # Each rough edge lies between two rows: at the last bright row + 0.5, the first - 0.5.
+    rough_top = _last_at_least(q, top_mid, deep_start - d - level_n, interior_a) + 0.5
+    rough_end = _first_at_least(q, end_mid, interior_b, f_a + level_n) - 0.5
+    use_top = present & ~dark_before & ~dark_after
+    use_end = use_top
+    top_off, top_std, top_blur = _aligned_fit(power, rough_top, owner, use_top, deep_start - reach,
+                                              mid_shadow + 1, n_pairs, half, 1.0)
+    end_off, end_std, _ = _aligned_fit(power, rough_end, owner, use_end, mid_shadow, hi - lo, n_pairs, half, -1.0)
+    # The target's near edge: the rise from the seabed before a highlight to the highlight.
+    tf, tl = t_first - lo, t_last - lo
+    near_before = _window_means(cum, tf - d - level_n, tf - d)
+    near_inside = _window_means(cum, tf + d, np.maximum(tl - d + 1, tf + d + 1))
+    rough_near = _first_at_least(q, np.sqrt(near_before * near_inside), tf - d - level_n, tf + d + 1) - 0.5
+    use_near = use_top & has_h & (near_inside > near_before)
+    near_off, near_std, _ = _aligned_fit(power, rough_near, owner, use_near, tf - reach, (tf + tl) // 2 + 1,
+                                         n_pairs, half, -1.0)
+    out = []
+    start = 0
+    for n, count in enumerate(counts):
+        sel = slice(start, start + count)
+        start += count
+        good = use_top[sel] & np.isfinite(rough_top[sel]) & np.isfinite(rough_end[sel])
+        if not (np.isfinite(top_off[n]) and np.isfinite(end_off[n])):
+            good[:] = False
+        near = np.where(use_near[sel] & np.isfinite(rough_near[sel]) & np.isfinite(near_off[n]),
+                        np.floor(np.nan_to_num(rough_near[sel])) + near_off[n], np.nan)
+        lo_sel = lo[sel]
+        echo = np.nanmedian(echo_db[sel][good]) if np.any(good) else math.nan
+        depth = np.nanmedian(depth_db[sel][good]) if np.any(good) else math.nan
+        out.append(PairEdges(
+            columns=tuple(int(c) for c in beams[sel][good]),
+            top_rows=(np.floor(np.nan_to_num(rough_top[sel])) + top_off[n] + lo_sel)[good],
+            end_rows=(np.floor(np.nan_to_num(rough_end[sel])) + end_off[n] + lo_sel)[good],
+            near_rows=(near + lo_sel)[good],
+            top_std_rows=float(top_std[n]),
+            end_std_rows=float(end_std[n]),
+            near_std_rows=float(near_std[n]),
+            blur_rows=float(top_blur[n]),
+            n_central=count,
+            cut_near=int(np.count_nonzero(present[sel] & dark_before[sel])),
+            cut_far=int(np.count_nonzero(present[sel] & dark_after[sel])),
+            echo_db=float(echo),
+            depth_db=float(depth),
+            seabed_db=float(depth - echo) if math.isfinite(echo) and math.isfinite(depth) else math.nan,
+        ))
     return out
 
 
-def _edges_quiet(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> Edges:
-    """:func:`find_edges` with numpy's divide and invalid warnings already off."""
-    levels = segmentation.levels
-    n_rows, n_cols = levels.shape
-    half = cfg.smooth_samples // 2
-    k_smooth = cfg.smooth_samples
-    level_samples = cfg.level_samples
-    n_pairs = len(pairs)
-    centrals = [central_beams(pair.columns, cfg.central_fraction) for pair in pairs]
-    beam_list = [c for central in centrals for c in central]
-    if not beam_list:
-        return no_edges([False] * n_pairs)
-    # Beams per pair (None once beams are dropped), the beams' range and, per beam, its
-    # pair and the labels of the pair's shadow and highlight.
-    per_pair = [len(central) for central in centrals]
-    counts: list[int] | None = per_pair
-    beam_range = (min(beam_list), max(beam_list))
-    beams = np.array(beam_list)
-    owner, s_labels, t_labels = (
-        np.array([(n, pair.shadow.label, pair.highlight.label) for n, pair in enumerate(pairs)])
-        .repeat(per_pair, axis=0)
-        .T
-    )
-    # The regions' first and last rows in those beams (see Segmentation.column_extents).
-    s_last = segmentation.shadow_rows[1][s_labels, beams]
-    if np.minimum.reduce(s_last) < 0:
-        ok = s_last >= 0
-        owner, beams, s_labels, t_labels, s_last = (v[ok] for v in (owner, beams, s_labels, t_labels, s_last))
-        counts = None
-        if beams.size == 0:
-            return no_edges([False] * n_pairs)
-    s_first = segmentation.shadow_rows[0][s_labels, beams]
-    # The highlight's first row (where it is in the beam: -1 elsewhere) bounds the window below.
-    t_first = segmentation.highlight_rows[0][t_labels, beams]
-    if segmentation.row_step > 1:
-        s_first, s_last = refine_shadow_rows(segmentation, beams, s_first, s_last, beam_range=beam_range)
-    # The seabed just after the shadow, rows ba .. bb - 1; a beam where fewer than
-    # `need` of them lie inside the window is cut (bb - ba is least for the deepest shadow).
-    need = max(2, level_samples // 2)
-    n_beams = n_cut = None
-    last_max = int(np.maximum.reduce(s_last))
-    if min(n_rows - (last_max + 1 + k_smooth), level_samples) < need:
-        ba = s_last + 1 + k_smooth
-        cut = np.minimum(n_rows, ba + level_samples) - ba < need
-        n_beams = np.bincount(owner, minlength=n_pairs)
-        n_cut = np.bincount(owner[cut], minlength=n_pairs)
-        keep = ~cut
-        owner, beams, t_first, s_first, s_last = (v[keep] for v in (owner, beams, t_first, s_first, s_last))
-        counts = None
-        if beams.size == 0:
-            return no_edges(_most(n_cut, n_beams, n_pairs))
-        last_max = int(np.maximum.reduce(s_last))
-    # Linear power of the beams (each averaged with its neighbours), smoothed in range;
-    # beam c's window starts at row lo[c], and p[i, c] belongs to row off[c] + i.
-    # The window starts a little before the shadow (room for the target's echo level
-    # before its far top edge), at lo = max(0, max(t_first, s_first - lead) - half), and
-    # ends past the seabed window after the shadow, at min(n_rows, max(bb, s_last +
-    # k_smooth + 2) + k_smooth) = min(n_rows, s_last + span) as level_samples >= 1.
-    lead = 2 * k_smooth + level_samples + 2 * segmentation.row_step + EDGE_MARGIN_SAMPLES
-    off = np.maximum(np.maximum(t_first, s_first - lead), half)
-    lo = off - half
-    span = 1 + 2 * k_smooth + level_samples
-    if last_max + span <= n_rows:
-        length = int(np.maximum.reduce(s_last - lo)) + span
-    else:
-        length = int(np.maximum.reduce(np.minimum(s_last + span, n_rows) - lo))
-    if length < k_smooth + 2:
-        return no_edges(_most(n_cut, n_beams, n_pairs))
-    m = beams.size
-    power = neighbour_power(segmentation, lo, beams, length, cfg.smooth_beams, beam_range=beam_range)
-    cum = cumsum0(power)
-    # (OpenCV's subtraction, the same differences, walks the strided sums faster)
-    p = cast("NDArray[np.float64]", cv2.subtract(cum[k_smooth:], cum[:-k_smooth]))
-    p /= k_smooth
-    n_p = p.shape[0]
-    cum_p = cumsum0(p)
-    cols = np.arange(m)
-    # Per beam, rows of p (one stack, one subtraction): the shadow inside (sa .. sb - 1)
-    # and the seabed just after it (ba .. bb - 1, within the image), whose levels are
-    # means (cum_p[b] - cum_p[a]) / (b - a); the shadow's core (s_first + k_smooth or,
-    # if nearer, s_last); and the start (the shadow's middle, at least 1) and stop of
-    # the search for its end.
-    rows_p = np.array(
-        (s_first, s_last, s_last, s_last, s_first, s_last, s_first, (s_first + s_last) // 2, s_last)
-    ) + _bound_offsets(half, k_smooth, level_samples) - off
-    sa, sb, ba, bb, core_first, core_last, start_first, start_middle, stop = rows_p
-    if last_max + 1 + k_smooth + level_samples > n_rows:
-        np.minimum(bb, n_rows - off, out=bb)
-    short = sb <= sa
-    if np.logical_or.reduce(short):
-        # (a shadow too short for the smoothing: all its rows)
-        sa[short] = start_first[short]
-        sb[short] = core_last[short] + 1
-    bounds = clamp(rows_p[:4], 0, n_p)
-    at = cum_p[bounds, cols]
-    levels_sb = (at[1::2] - at[::2]) / (bounds[1::2] - bounds[::2])
-    shadow_level, seabed_level = levels_sb
-    # Where the "seabed" after the shadow is hardly brighter than the shadow, the shadow
-    # runs on into the dark beyond the band's far edge: cut there.
-    levels_db = 10.0 * np.log10(levels_sb)
-    contrast = levels_db[1] - levels_db[0] >= cfg.end_contrast_db
-    if not np.logical_and.reduce(contrast):
-        # A shadow cut by the far edge is cut across its width: most of its beams.
-        if n_beams is None:
-            n_beams = np.bincount(owner, minlength=n_pairs)
-        beyond = np.bincount(owner[~contrast], minlength=n_pairs)
-        n_cut = beyond if n_cut is None else n_cut + beyond
-    far_cut = _most(n_cut, n_beams, n_pairs)
-    # The target's echo just before its far top edge (which may be weaker than the
-    # highlight's brightest part, e.g. a top seen at grazing incidence): find the edge
-    # roughly as the last sample above the dB-midpoint of shadow and seabed, then take
-    # the echo level a smoothing width before it. Both searches end at the core of the
-    # shadow: only the rows before the farthest core are searched (backwards), and
-    # each beam's own core bounds the search only where the cores differ.
-    core = np.minimum(core_first, core_last)
-    core_min, core_max = int(np.minimum.reduce(core)), int(np.maximum.reduce(core))
-    rough_level = np.sqrt(shadow_level * seabed_level)
-    n_near = min(max(core_max + 1, 1), n_p)  # rows idx <= core
-    near = p[n_near - 1 :: -1] >= rough_level
-    if core_min < n_near - 1:
-        near &= np.arange(n_near - 1, -1, -1)[:, None] <= core
-    rough, has_rough = _last_true(near, n_near, cols)
-    # The echo's rows ea .. eb - 1 (never past the rows of p: rough < n_p), as a stack
-    # (eb, ea), and the midpoints of the far top edge (echo and shadow) and of the end
-    # (shadow and seabed).
-    echo_rows = np.maximum(rough - _echo_offsets(k_smooth, level_samples), _ECHO_FIRST_ROWS)
-    at = cum_p[echo_rows, cols]
-    echo_level = (at[0] - at[1]) / (echo_rows[0] - echo_rows[1])
-    mids = 0.5 * (np.array((echo_level, seabed_level)) + shadow_level)
-    mid_top = mids[0]
-    n_top = min(max(core_max, 1), n_p)  # rows idx < core
-    above = p[n_top - 1 :: -1] >= mid_top
-    if core_min < n_top:
-        above &= np.arange(n_top - 1, -1, -1)[:, None] < core
-    k_top, has_top = _last_true(above, n_top, cols)
-    # The shadow end: searched from the middle of the shadow to just past its last row,
-    # in the rows c0 .. c1 - 1 that hold every beam's search.
-    start = np.maximum(np.maximum(start_first, start_middle), 1)
-    c0 = min(int(np.minimum.reduce(start)), n_p - 1)
-    c1 = max(min(int(np.maximum.reduce(stop)), n_p), c0 + 1)
-    # The first crossing from c0 is the one sought where it lies in its beam's search;
-    # before the search's start (rarely: the search starts inside the shadow) the rows
-    # before each start are masked and the search is run again; at or past its stop,
-    # the beam has no shadow end.
-    k_end, has_end = _first_true(p[c0:c1] >= mids[1], c0, cols)
-    if np.logical_or.reduce(has_end & (k_end < start)):
-        idx_far = np.arange(c0, c1)[:, None]
-        k_end, has_end = _first_true((p[c0:c1] >= mids[1]) & (idx_far >= start), c0, cols)
-    has_end &= k_end < stop
-    # The samples either side of both crossings, in one gather: k_top + 1 <= n_top is
-    # past the rows of p only when n_top = n_p, and k_end >= c0 >= 1 (start >= 1 and
-    # n_p >= 3), so row k_end - 1 is inside p. Each crossing lies between sample a
-    # (at row k) and sample b (at row k + 1): the edge is k + (a - mid) / (a - b), the
-    # shadow end's as before_end + (mid - a) / (b - a) with both signs turned (the
-    # same value: IEEE subtraction and division are symmetric in sign).
-    after_top = k_top + 1 if n_top < n_p else np.minimum(k_top + 1, n_p - 1)
-    k_rows = np.array((k_top, k_end - 1, after_top, k_end))
-    samples = p[k_rows, cols]
-    a, b = samples[:2], samples[2:]
-    edge_rows = k_rows[:2] + (a - mids) / (a - b)
-    # Kept: beams with both edges, in order, between levels that make sense
-    # (shadow < seabed, shadow < echo, ...; one comparison of two stacks).
-    good = np.logical_and.reduce(
-        np.array((shadow_level, shadow_level, b[0], a[1], edge_rows[0]))
-        < np.array((seabed_level, echo_level, mid_top, mids[1], edge_rows[1]))
-    )
-    good &= np.logical_and.reduce(np.array((has_rough, has_top, has_end, contrast)))
-    rows = edge_rows + off
-    if np.logical_and.reduce(good):
-        if counts is None:
-            counts = np.bincount(owner, minlength=n_pairs).tolist()
-        return Edges(beams, rows, counts, far_cut)
-    return Edges(beams[good], rows[:, good], np.bincount(owner[good], minlength=n_pairs).tolist(), far_cut)
+def _empty(n_central: int) -> PairEdges:
+    e = np.zeros(0)
+    return PairEdges((), e, e.copy(), e.copy(), math.nan, math.nan, math.nan, math.nan, n_central, 0, 0,
+                     math.nan, math.nan, math.nan)

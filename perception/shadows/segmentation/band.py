@@ -13,23 +13,11 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from perception.shadows.segmentation.levels import percentile90
-
 #: Beams whose band edge is this far (rows) from the fitted curve count as moved by a shadow.
 BAND_EDGE_TOLERANCE_ROWS = 6.0
 
-#: Row step (full-resolution rows) of the per-beam band-edge search.
-BAND_EDGE_STRIDE = 4
-
-
-def insonified_rows(background: NDArray[np.float32], *, drop: float) -> NDArray[np.bool_]:
-    """Rows whose seabed level is within ``drop`` (level units) of the frame's seabed level.
-
-    The frame's seabed level is the 90th percentile of the row levels; the kept rows
-    form the longest contiguous run (the insonified band), so isolated bright rows in
-    the dark are not taken for seabed.
-    """
-    return longest_run(background >= percentile90(background) - drop)
+#: Row step of the per-beam band-edge search.
+BAND_EDGE_STRIDE = 1
 
 
 def longest_run(above: NDArray[np.bool_]) -> NDArray[np.bool_]:
@@ -156,21 +144,6 @@ def _solve3(
     x1 = (a00 * (b1 * a22 - a12 * b2) - b0 * c1 + a02 * (a10 * b2 - b1 * a20)) / det
     x2 = (a00 * (a11 * b2 - b1 * a21) - a01 * (a10 * b2 - b1 * a20) + b0 * c2) / det
     return x0, x1, x2
-
-
-def column_band(
-    smoothed: NDArray[np.float32], rows: NDArray[np.bool_], *, level: float, stride: int = BAND_EDGE_STRIDE,
-    tolerance_rows: float = BAND_EDGE_TOLERANCE_ROWS,
-) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """Per beam, the first and last seabed row of the band ``rows`` (level >= ``level``).
-
-    The band's edges are curved across the beams; beams where a shadow moves an edge
-    (more than ``tolerance_rows`` off) are corrected by a robust parabola over the beams.
-    Every ``stride``-th row is searched. Returns (start, stop), shape (n_beams,), rows of
-    ``smoothed``.
-    """
-    edges = band_edges(smoothed, rows, level=level, stride=stride, tolerance_rows=tolerance_rows)
-    return edges[0], edges[1]
 
 
 def band_edges(

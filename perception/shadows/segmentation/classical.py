@@ -12,11 +12,15 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from perception.shadows.segmentation.grid import Region, clean_mask, components
+from perception.shadows.segmentation.grid import Region, components
 from perception.shadows.segmentation.levels import Levels
 
 if TYPE_CHECKING:
     from perception.shadows.segmentation.config import SegmentationConfig
+
+#: Smallest shadow and highlight components the baseline keeps, pixels.
+MIN_SHADOW_AREA_PX = 12
+MIN_HIGHLIGHT_AREA_PX = 6
 
 
 def classical_regions(
@@ -42,12 +46,8 @@ def classical_regions(
         ),
         dtype=np.uint8,
     )
-    shadow_u8 = clean_mask(shadow_u8, open_size=cfg.open_size, close_size=cfg.close_size)
-    highlight_u8 = clean_mask(highlight_u8, open_size=cfg.open_size, close_size=cfg.close_size)
-    shadow_labels, shadows = components(shadow_u8, kind="shadow", min_area_px=cfg.min_shadow_area_px)
-    highlight_labels, highlights = components(
-        highlight_u8, kind="highlight", min_area_px=cfg.min_highlight_area_px
-    )
+    shadow_labels, shadows = components(shadow_u8, kind="shadow", min_area_px=MIN_SHADOW_AREA_PX)
+    highlight_labels, highlights = components(highlight_u8, kind="highlight", min_area_px=MIN_HIGHLIGHT_AREA_PX)
     return shadow_labels, shadows, highlight_labels, highlights
 
 

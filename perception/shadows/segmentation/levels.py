@@ -8,14 +8,12 @@ levels (``uint8_db_range`` dB over 0-255), other dtypes linear echo power.
 from __future__ import annotations
 
 import functools
+import math
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 from scipy.ndimage import median_filter
-
-#: Blocks of rows in the running median of the row background.
-BACKGROUND_MEDIAN_BLOCKS = 63
 
 #: Image levels proportional to dB: the uint8 display image or float32 dB.
 Levels = NDArray[np.uint8] | NDArray[np.float32]
@@ -68,58 +66,74 @@ def box_smooth(image: Levels, *, samples: int, beams: int) -> NDArray[np.float32
     return np.asarray(out, dtype=np.float32)
 
 
-def grid_smooth(
-    image: Levels, rows: NDArray[np.intp], *, samples: int, beams: int
-) -> NDArray[np.float32]:
-    """:func:`box_smooth` at the given rows only (edges replicated), float32, new array.
+def block_levels(image: Levels, row_step: int, *, beams: int) -> NDArray[np.float32]:
+    """Mean level of each block of ``row_step`` rows, averaged over ``beams`` beams (centred,
+    edges replicated): the detection grid.
 
     Parameters
     ----------
     image : ndarray, shape (n_samples, n_beams), uint8 or float32
-    rows : ndarray, shape (n,), int
-        Rows to smooth, each in ``[0, n_samples)``.
+        Levels (:func:`as_levels`).
+    row_step : int
+        Rows per block (>= 1); the ``n_samples % row_step`` last rows are left out.
+    beams : int
+        Beams averaged (odd, >= 1).
 
     Returns
     -------
-    ndarray, shape (n, n_beams), float32
+    ndarray, shape (n_samples // row_step, n_beams), float32
     """
     n_rows, n_cols = image.shape
-    half = samples // 2
-    wide = image.dtype == np.uint8 and samples <= 257
-    step = int(rows[1] - rows[0]) if rows.size > 1 else 0
-    if (
-        wide and step > 0 and rows.size * step == n_rows and int(rows[0]) == step // 2
-        and step // 2 - half >= 0 and step // 2 + half < step and (2 * half + 1) * beams * 255 < 2**24
-    ):
-        # The detection grid's rows (the middle row of every block of ``step`` rows): the
-        # sum over the rows around each is a sum of rows of a reshaped view, then a sum of
-        # neighbouring columns (edges replicated). OpenCV adds the strided rows and columns
-        # into float32 faster than numpy's adds or its box filter; every sum is exact
-        # (whole numbers below 2**24), so they equal the integer sums of the other branch.
-        blocks = image.reshape(rows.size, step, n_cols)[:, step // 2 - half : step // 2 + half + 1]
-        side = beams // 2
-        padded = np.zeros((rows.size, n_cols + 2 * side), dtype=np.float32)
-        acc = padded[:, side : side + n_cols]
-        for k in range(blocks.shape[1]):
-            cv2.accumulate(blocks[:, k], acc)
-        if side == 0:
-            out = acc
-        else:
-            padded[:, :side] = acc[:, :1]
-            padded[:, side + n_cols :] = acc[:, -1:]
-            out = np.asarray(cv2.add(padded[:, :n_cols], padded[:, 1 : 1 + n_cols]), dtype=np.float32)
-            for k in range(2, beams):
-                cv2.accumulate(padded[:, k : k + n_cols], out)
+    d = max(1, min(int(row_step), n_rows))
+    n_grid = n_rows // d
+    blocks = image[: n_grid * d].reshape(n_grid, d, n_cols)
+    if image.dtype == np.uint8:
+        total = np.add.reduce(blocks, axis=1, dtype=np.uint16 if d <= 257 else np.uint32)
+        out = total.astype(np.float32)
     else:
-        acc = np.zeros((rows.size, n_cols), dtype=np.uint16 if wide else np.float32)
-        for offset in range(-half, half + 1):
-            np.add(acc, image[np.minimum(np.maximum(rows + offset, 0), n_rows - 1)], out=acc)
-        out = np.asarray(
-            cv2.boxFilter(acc, cv2.CV_32F, (beams, 1), normalize=False, borderType=cv2.BORDER_REPLICATE),
-            dtype=np.float32,
-        )
-    out *= np.float32(1.0 / (samples * beams))
+        out = np.add.reduce(blocks, axis=1, dtype=np.float32)
+    out *= np.float32(1.0 / d)
+    if beams > 1:
+        out = np.asarray(cv2.boxFilter(out, -1, (beams, 1), normalize=True, borderType=cv2.BORDER_REPLICATE),
+                         dtype=np.float32)
     return out
+
+
+#: Most values :func:`level_spread` reads (a strided subsample of larger grids).
+SPREAD_SAMPLE = 4096
+
+
+def level_spread(grid: NDArray[np.float32], background: NDArray[np.float32], rows: NDArray[np.bool_]) -> float:
+    """Robust standard deviation of the seabed's ``grid - background`` over the ``rows``.
+
+    Shadows, the dark outer beams at the band's curved edges and targets' echoes lie in
+    the tails of the residuals and can be a third of a row or more, so: a first estimate
+    from the upper tail (``(q90 - q75) / 0.6071``, as for a normal; dark pixels are all
+    below the median), then the interquartile range (``/ 1.349``) of the residuals within
+    3 of those of it. At most :data:`SPREAD_SAMPLE` values are read, strided over rows and
+    beams. Returns 0 when no row is given.
+    """
+    picked = np.flatnonzero(rows)
+    if picked.size == 0:
+        return 0.0
+    n_cols = grid.shape[1]
+    step_rows = max(1, int(math.ceil(math.sqrt(picked.size * n_cols / SPREAD_SAMPLE))))
+    step_cols = max(1, min(n_cols, step_rows))
+    picked = picked[::step_rows]
+    flat = (grid[picked, ::step_cols] - background[picked, None]).ravel()
+    n = flat.size
+    if n < 8:
+        return float(np.std(flat))
+    k75, k90 = int(0.75 * (n - 1)), int(0.90 * (n - 1))
+    part = np.partition(flat, (k75, k90))
+    first = float(part[k90] - part[k75]) / 0.6071
+    centre = float(part[k75]) - 0.6745 * first  # the seabed's median, from its upper quartile
+    kept = flat[np.abs(flat - centre) <= 3.0 * first] if first > 0 else flat
+    if kept.size < 8:
+        return first
+    k25, k75 = int(0.25 * (kept.size - 1)), int(0.75 * (kept.size - 1))
+    part = np.partition(kept, (k25, k75))
+    return float(part[k75] - part[k25]) / 1.349
 
 
 def percentile90(values: NDArray[np.float32]) -> float:
@@ -135,84 +149,55 @@ def percentile90(values: NDArray[np.float32]) -> float:
 
 
 def row_background(
-    smoothed: NDArray[np.float32], *, block_samples: int
+    grid: NDArray[np.float32], *, block_rows: int, median_blocks: int, non_negative: bool | None = None
 ) -> NDArray[np.float32]:
-    """Seabed level of each range row: upper quartile over beams of blocks of rows.
+    """Seabed level of each grid row: upper quartile over beams of blocks of rows, capped by
+    a running median over blocks.
 
     Parameters
     ----------
-    smoothed : ndarray, shape (n_samples, n_beams), float32
-    block_samples : int
-        Rows averaged per block before the median (speed and robustness).
+    grid : ndarray, shape (n_rows, n_beams), float32
+        Smoothed levels (the detection grid).
+    block_rows : int
+        Rows averaged per block before the quartile (>= 1).
+    median_blocks : int
+        Blocks (odd) of the running median that caps rises by bright targets: a row can
+        be a quarter bright targets, which raises its quartile, while the seabed's own level
+        changes slowly along range (the band's edges stay sharp: the cap only lowers).
+    non_negative : bool or None
+        Whether ``grid`` is known to be >= 0 (None: find out); non-negative values sort
+        faster as integers.
 
     Returns
     -------
-    ndarray, shape (n_samples,), float32
+    ndarray, shape (n_rows,), float32
     """
-    return row_background_of(smoothed, block_samples=block_samples, non_negative=None)
-
-
-def row_background_of(
-    smoothed: NDArray[np.float32], *, block_samples: int, non_negative: bool | None
-) -> NDArray[np.float32]:
-    """:func:`row_background`, told whether ``smoothed`` is known to be >= 0 (None: find out).
-
-    Box means of uint8 levels are never negative, which saves a pass over them.
-    """
-    n_rows, n_cols = smoothed.shape
-    block = max(1, min(block_samples, n_rows))
+    n_rows, n_cols = grid.shape
+    block = max(1, min(int(block_rows), n_rows))
     n_blocks = n_rows // block
     if block > 1:
-        small = smoothed[0 : n_blocks * block : block].copy()
-        for k in range(1, block):
-            small += smoothed[k : n_blocks * block : block]
+        small = np.add.reduce(grid[: n_blocks * block].reshape(n_blocks, block, n_cols), axis=1)
         small *= np.float32(1.0 / block)
     else:
-        small = smoothed
+        small = grid
     # The upper quartile, not the median: a row can be more than half shadow when large
     # targets stand in it, but highlights are never a quarter of a row.
-    k = (3 * small.shape[1]) // 4
-    # Non-negative float32 values order as their int32 bit patterns, which numpy sorts
-    # (SIMD) markedly faster than it partitions or sorts floats; the elements are the same.
+    k = (3 * n_cols) // 4
     as_int = small.dtype == np.float32 and (bool(small.min() >= 0) if non_negative is None else non_negative)
     if as_int:
-        # (A copy sorted in place: ``np.sort`` without its Python wrapper.)
+        # Non-negative float32 values order as their int32 bit patterns, which numpy sorts faster.
         ordered = small.view(np.int32).copy()
         ordered.sort(axis=1)
         level = ordered[:, k].view(np.float32)
     else:
         level = np.partition(small, k, axis=1)[:, k].astype(np.float32)
-    # Bright targets filling a quarter of a row raise its quartile; a wide running
-    # median over blocks (which keeps the band's edges sharp) caps such rises.
-    wide = _running_median_int(level) if as_int else median_filter(level, size=BACKGROUND_MEDIAN_BLOCKS, mode="nearest")
-    level = np.minimum(level, wide)
+    size = max(1, int(median_blocks) | 1)
+    if size > 1 and level.size > 1:
+        level = np.minimum(level, median_filter(level, size=size, mode="nearest"))
     if block == 1:
-        return level
+        return np.asarray(level, dtype=np.float32)
     centres = (np.arange(n_blocks) + 0.5) * block - 0.5
     return np.interp(np.arange(n_rows), centres, level).astype(np.float32)
-
-
-def _running_median_int(level: NDArray[np.float32]) -> NDArray[np.float32]:
-    """``median_filter(level, size=BACKGROUND_MEDIAN_BLOCKS, mode="nearest")`` of non-negative float32.
-
-    The windows (edges replicated) as a strided view, sorted by their int32 bit patterns
-    (the same order for non-negative floats): the same medians as scipy's, at a fraction
-    of its call overhead.
-    """
-    half = BACKGROUND_MEDIAN_BLOCKS // 2
-    n = level.size
-    padded = np.empty(n + 2 * half, dtype=np.float32)
-    padded[:half] = level[0]
-    padded[half : half + n] = level
-    padded[half + n :] = level[-1]
-    # Window i starts at element i: a strided view, no copy (``np.ndarray`` over the buffer
-    # costs far less than ``as_strided``).
-    windows = np.ndarray(
-        (n, BACKGROUND_MEDIAN_BLOCKS), dtype=np.int32, buffer=padded, strides=(padded.itemsize, padded.itemsize)
-    )
-    ordered = windows.copy()
-    ordered.sort(axis=1)
-    return ordered[:, half].view(np.float32)
 
 
 @functools.lru_cache(maxsize=8)

@@ -3,100 +3,76 @@
 Two methods, selectable in :class:`SegmentationConfig`:
 
 ``"speckle"`` (default)
-    Speckle-aware, in the decibel domain where speckle is additive and of one spread
-    everywhere: the image's levels (dB) are smoothed over a few range samples and beams,
-    and each pixel is compared with the seabed level of its range row (the upper quartile
-    over the beams, taken on a decimated image so it stays cheap). A fixed difference is a
-    cell-averaging CFAR test against the row: highlights are ``highlight_db`` above
-    their row's seabed, shadows ``shadow_db`` below it. Shadows are only sought in rows
-    where seabed is insonified (the row's seabed level within ``band_drop_db`` of the
-    frame's seabed level), which tells them apart from the darkness before the vertical
-    beam meets the seabed, beyond its far edge and beyond the range window. A region
-    is kept only with a *core*: a shadow must hold pixels ``shadow_core_db`` below the
-    seabed (a cast shadow holds only the noise floor, tens of dB down) and a highlight
-    pixels ``highlight_core_db`` above it (a target's echo), so the dark and bright
-    patches of a textured seabed, a few dB from its mean, are neither. Optional
-    opening and closing clean the masks.
+    In levels proportional to dB (:func:`as_levels`: the uint8 display image of an ARIS,
+    or the log of a linear image, whatever its gain, TVG or power law), on a *detection
+    grid* whose rows are the mean levels of blocks of range samples a fixed distance long
+    (``grid_step_m``, so frames of any sample spacing are searched alike) and a few beams
+    wide. Each grid row has a seabed level (upper quartile over beams); the frame's
+    *spread* ``sigma`` is the robust standard deviation of the grid's seabed pixels about
+    their row's level, and every threshold is a multiple of it, so speckle statistics
+    (looks, K-distributed tails), gain and dtype move the thresholds with the levels:
 
-    Regions are found on a *detection grid*: every ``d``-th row of the smoothed image,
-    ``d = max(1, n_samples // detection_rows)`` (a 2000-sample frame is searched on 250
-    rows). Shadows and highlights of targets span many samples, so nothing is lost, and
-    the labelling is one OpenCV pass over an eighth of the pixels. Region boxes and
-    :meth:`Segmentation.column_extents` are in full-resolution rows (to ``d`` rows);
-    :mod:`perception.shadows.measurement.measure` refines the edges it needs at full resolution, only in the
-    beams of paired targets, and the full-resolution label images are built on demand.
+    - the *band* (rows with insonified seabed) is the longest run of rows standing
+      ``band_sigmas`` spreads above the darkest rows (the noise floor); its edges are
+      followed per beam (they are curved in a polar image) by a robust parabola;
+    - a grid pixel inside the band is *shadow* ``shadow_sigmas`` below its row's level,
+      *highlight* ``highlight_sigmas`` above it;
+    - a region is kept with a *core*: a cast shadow reaches the noise floor, far below the
+      seabed, a target's echo stands far above it, while the dark and bright patches of a
+      textured seabed only just pass the first test: ``min_shadow_core_m`` of its range
+      (summed over its beams) must lie ``shadow_core_sigmas`` below (highlights likewise);
+    - regions are connected components of the grid (one OpenCV pass for both masks).
+
+    Region rows and :meth:`Segmentation.column_extents` are full-resolution rows of the
+    grid cells (to a grid step); :mod:`perception.shadows.measurement` finds the edges at
+    full resolution in the beams it measures.
 ``"classical"``
-    The paper's baseline: OpenCV's adaptive mean threshold on the raw image (dark
-    below the local mean minus ``classical_offset`` is shadow, bright above the local
-    mean plus it is highlight), without normalisation or band awareness, at full
-    resolution, components with their holes filled. Kept so that the improvement can be
-    shown side by side.
-
-The pieces live in :mod:`perception.shadows.segmentation.levels` (dB levels, smoothing, row
-seabed levels), :mod:`perception.shadows.segmentation.band` (the insonified band) and
-:mod:`perception.shadows.segmentation.grid` (regions and their extents); this module re-exports
-their public names.
+    The paper's baseline: OpenCV's adaptive mean threshold on the 8-bit image (dark below
+    the local mean minus ``classical_offset`` is shadow, bright above it plus the offset
+    highlight), without normalisation or band awareness, at full resolution, components
+    with their holes filled. Kept as the named baseline of the benchmark.
 
 Images are (n_samples, n_beams) = (range rows, beam columns), see
 :mod:`perception.sonar_io.frame`. Functions take the image first, options keyword-only, and
-never modify their input. Accepted dtypes: uint8, uint16, float32 (float64 is
-accepted and converted). uint8 images are taken as ARIS-style display levels,
-``uint8_db_range`` dB over 0-255 (the ARIS SDK maps 0-80 dB to 0-255); uint16 and float
-images as linear echo power (converted to dB here).
+never modify their input. Accepted dtypes: uint8, uint16, float32 (float64 is accepted
+and converted). uint8 is taken as ARIS-style display levels (``uint8_db_range`` dB over
+0-255); uint16 and float as linear echo (power or amplitude: only the scale of the dB
+differs, which the spread-relative thresholds absorb).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
-from perception.shadows.segmentation.band import (
-    BAND_EDGE_STRIDE,
-    BAND_EDGE_TOLERANCE_ROWS,
-    band_edges,
-    column_band,
-    insonified_rows,
-    longest_run,
-    shadow_in_band,
-    shadow_in_edges,
-)
+from perception.shadows.segmentation.band import band_edges, longest_run, shadow_in_edges
 from perception.shadows.segmentation.classical import classical_regions
 from perception.shadows.segmentation.config import METHODS, SegmentationConfig
 from perception.shadows.segmentation.grid import (
-    MAX_CONTOURS,
     ColumnRows,
     Extents,
     LabelledMask,
     Region,
-    clean_mask,
-    components,
-    grid_components,
     label_mask,
     label_rows,
     labelled_regions,
-    with_core,
 )
 from perception.shadows.segmentation.levels import (
-    BACKGROUND_MEDIAN_BLOCKS,
     Levels,
     as_levels,
-    box_smooth,
-    grid_smooth,
-    percentile90,
+    block_levels,
+    level_spread,
     row_background,
-    row_background_of,
     running_min_max,
 )
 from perception.shadows.segmentation.result import LABEL_HIGHLIGHT, LABEL_OTHER, LABEL_SHADOW, Segmentation
 
 __all__ = [
-    "BACKGROUND_MEDIAN_BLOCKS",
-    "BAND_EDGE_STRIDE",
-    "BAND_EDGE_TOLERANCE_ROWS",
     "LABEL_HIGHLIGHT",
     "LABEL_OTHER",
     "LABEL_SHADOW",
-    "MAX_CONTOURS",
     "METHODS",
     "ColumnRows",
     "Extents",
@@ -105,142 +81,163 @@ __all__ = [
     "Segmentation",
     "SegmentationConfig",
     "as_levels",
-    "box_smooth",
-    "column_band",
-    "components",
-    "grid_components",
-    "grid_smooth",
-    "insonified_rows",
-    "label_mask",
-    "labelled_regions",
-    "longest_run",
     "mask_iou",
-    "row_background",
-    "running_min_max",
+    "sample_spacing_m",
     "segment",
-    "shadow_in_band",
-    "with_core",
 ]
 
+#: Range of the running median that caps a row's seabed level where bright targets raise it, m.
+BACKGROUND_MEDIAN_M = 0.25
+#: Beams whose band edge lies this far (m of range) from the fitted curve count as moved by a shadow.
+BAND_EDGE_TOLERANCE_M = 0.015
+#: Percentile of the row levels taken as the noise floor.
+NOISE_PERCENTILE = 2.0
+#: Spread assumed (level units, as dB) for a frame too uniform to measure one.
+MIN_SIGMA_DB = 0.05
 
-def segment(image: NDArray[np.generic], *, config: SegmentationConfig | None = None) -> Segmentation:
+
+def sample_spacing_m(range_m: NDArray[np.float64] | None, n_samples: int) -> float:
+    """Mean spacing of ``range_m`` (m), or 1 mm when no range axis is given."""
+    if range_m is None:
+        return 1e-3
+    r = np.asarray(range_m, dtype=np.float64)
+    if r.ndim != 1 or r.size != n_samples:
+        raise ValueError(f"range_m must have shape ({n_samples},), got {r.shape}")
+    if n_samples < 2:
+        return 1e-3
+    return float(r[-1] - r[0]) / (n_samples - 1)
+
+
+def segment(
+    image: NDArray[np.generic],
+    *,
+    range_m: NDArray[np.float64] | None = None,
+    config: SegmentationConfig | None = None,
+) -> Segmentation:
     """Segment highlights and cast shadows in one polar sonar image.
 
     Parameters
     ----------
     image : ndarray, shape (n_samples, n_beams), uint8, uint16, float32 or float64
-        Echo intensity; rows are range samples (nearest first), columns beams. uint8 is
-        taken as display levels over ``config.uint8_db_range`` dB, other dtypes as
-        linear power.
+        Echo intensity; rows are range samples (nearest first), columns beams.
+    range_m : ndarray, shape (n_samples,), optional
+        Slant range of each row, m; sets the physical scales (default: 1 mm samples).
     config : SegmentationConfig, optional
         Settings; the default is the speckle-aware method.
 
     Returns
     -------
     Segmentation
-        Components (on the detection grid, boxes in full-resolution rows), smoothed
-        levels, per-row thresholds and the insonified band.
     """
     cfg = config or SegmentationConfig()
     levels, db_per_level = as_levels(image, uint8_db_range=cfg.uint8_db_range)
     n_rows, n_cols = levels.shape
-    # The band and the row levels come from every d-th row, whatever the method; the
-    # speckle method also finds its regions there (the detection grid).
-    d = max(1, n_rows // cfg.detection_rows) if cfg.detection_rows else 1
-    centres = np.arange(d // 2, n_rows + d // 2, d)
-    if centres.size and centres[-1] >= n_rows:
-        # (Only when the last block is short.)
-        centres = np.minimum(centres, n_rows - 1)
-    grid = grid_smooth(levels, centres, samples=cfg.smooth_samples, beams=cfg.smooth_beams)
-    block = max(1, cfg.background_block_samples // d)
-    background = row_background_of(grid, block_samples=block, non_negative=levels.dtype == np.uint8)
-    drop = cfg.band_drop_db / db_per_level
-    seabed_floor = percentile90(background) - drop
-    # insonified_rows(background, drop=drop) without taking the percentile again.
-    band = longest_run(background >= seabed_floor)
-    # Row 0: each beam's first band row (of the grid), row 1: its last (column_band as one array).
-    edges = band_edges(
-        grid, band, level=seabed_floor, stride=max(1, BAND_EDGE_STRIDE // d),
-        tolerance_rows=BAND_EDGE_TOLERANCE_ROWS / d,
+    sample_m = sample_spacing_m(range_m, n_rows)
+    if cfg.method == "classical":
+        return _classical(levels, db_per_level, sample_m, cfg)
+    d = cfg.row_step(n_rows, sample_m)
+    grid = block_levels(levels, d, beams=cfg.smooth_beams)
+    n_grid = grid.shape[0]
+    cell_m = d * sample_m
+    block = max(1, int(round(cfg.background_block_m / cell_m)))
+    median_blocks = max(1, int(round(BACKGROUND_MEDIAN_M / (block * cell_m)))) | 1
+    non_negative = levels.dtype == np.uint8
+    background = row_background(grid, block_rows=block, median_blocks=median_blocks, non_negative=non_negative)
+    noise = float(np.percentile(background, NOISE_PERCENTILE))
+    # The spread, first over the rows half-way or more from the noise floor to the brightest
+    # (surely seabed when there is any), then over the band it finds.
+    upper = background >= 0.5 * (noise + float(np.percentile(background, 95)))
+    sigma0 = max(level_spread(grid, background, upper), MIN_SIGMA_DB / db_per_level)
+    lit_level = noise + cfg.band_sigmas * sigma0
+    band = longest_run(background >= lit_level)
+    sigma = max(level_spread(grid, background, band), MIN_SIGMA_DB / db_per_level) if band.any() else sigma0
+    lit_level = noise + cfg.band_sigmas * sigma
+    band = longest_run(background >= lit_level)
+    tolerance = max(1.0, BAND_EDGE_TOLERANCE_M / cell_m)
+    edges = band_edges(grid, band, level=lit_level, stride=1, tolerance_rows=tolerance)
+    # Near the band's edges a block straddles both sides: shadows are tested against the
+    # lowest nearby level, highlights against the highest.
+    low, high = running_min_max(background, size=2 * block + 1)
+    shadow_offset = cfg.shadow_sigmas * sigma
+    highlight_offset = cfg.highlight_sigmas * sigma
+    shadow_limit = low - np.float32(shadow_offset)
+    highlight_limit = np.maximum(high, np.float32(lit_level)) + np.float32(highlight_offset)
+    # Both masks side by side (a blank column between): one labelling pass.
+    both = np.zeros((n_grid, 2 * n_cols + 1), dtype=np.uint8)
+    # The grid cell at each beam's band edge straddles the edge (half dark): not shadow.
+    inner = edges + np.array([[1], [-1]])
+    shadow_in_edges(grid, shadow_limit, inner, out=both[:, :n_cols].view(bool))
+    in_band = band[:, None]
+    np.greater(grid, highlight_limit[:, None], out=both[:, n_cols + 1 :].view(bool))
+    both[:, n_cols + 1 :] &= in_band
+    labelled = label_mask(both.view(bool))
+    shadow_core = low - np.float32(cfg.shadow_core_sigmas * sigma)
+    highlight_core = highlight_limit + np.float32((cfg.highlight_core_sigmas - cfg.highlight_sigmas) * sigma)
+    core_px = _core_pixels(labelled, grid, shadow_core, highlight_core) * d
+    min_core = (int(math.ceil(cfg.min_shadow_core_m / sample_m)), int(math.ceil(cfg.min_highlight_core_m / sample_m)))
+    regions, (first, last) = labelled_regions(
+        labelled, kind="shadow", min_area_px=1, row_step=d, n_rows=n_rows,
+        second=("highlight", n_cols + 1, 1), core_px=core_px, min_core_px=min_core,
     )
-    if cfg.method == "speckle":
-        # Where the row level changes fast (the band's edges) a block straddles both
-        # sides: shadows are tested against the lowest nearby level, highlights against
-        # the highest, so neither edge of the band turns into shadow or highlight.
-        low, high = running_min_max(background, size=2 * block + 1)
-        shadow_limit = low - np.float32(cfg.shadow_db / db_per_level)
-        highlight_limit = np.maximum(high, np.float32(seabed_floor)) + np.float32(
-            cfg.highlight_db / db_per_level
-        )
-        # Both masks side by side (a blank column between): one labelling pass. Each mask
-        # is written whole below.
-        both = np.empty((grid.shape[0], 2 * n_cols + 1), dtype=np.uint8)
-        both[:, n_cols] = 0
-        shadow_in_edges(grid, shadow_limit, edges, out=both[:, :n_cols].view(bool))
-        np.greater(grid, highlight_limit[:, None], out=both[:, n_cols + 1 :].view(bool))
-        if cfg.open_size > 1 or cfg.close_size > 1:
-            for part in (both[:, :n_cols], both[:, n_cols + 1 :]):
-                part[...] = clean_mask(np.ascontiguousarray(part), open_size=cfg.open_size, close_size=cfg.close_size)
-        labelled = label_mask(both.view(bool))
-        # A shadow holds only the noise floor, a target's echo stands well above the
-        # seabed: dark and bright patches of a textured seabed have neither core.
-        shadow_core = low - np.float32(cfg.shadow_core_db / db_per_level)
-        highlight_core = highlight_limit + np.float32((cfg.highlight_core_db - cfg.highlight_db) / db_per_level)
-        core_px = _core_pixels(labelled, grid, shadow_core, highlight_core) * d
-        regions, (first, last) = labelled_regions(
-            labelled, kind="shadow", min_area_px=cfg.min_shadow_area_px, row_step=d, n_rows=n_rows,
-            second=("highlight", n_cols + 1, cfg.min_highlight_area_px),
-            core_px=core_px, min_core_px=(cfg.min_shadow_core_px, cfg.min_highlight_core_px),
-        )
-        labels = labelled.labels
-        shadow_labels, highlight_labels = labels[:, :n_cols], labels[:, n_cols + 1 :]
-        # (List comprehensions: cheaper than generators into tuple.)
-        shadows = tuple([r for r in regions if r.kind == "shadow"])
-        highlights = tuple([r for r in regions if r.kind == "highlight"])
-        shadow_rows = (first[:, :n_cols], last[:, :n_cols])
-        highlight_rows = (first[:, n_cols + 1 :], last[:, n_cols + 1 :])
-        step = d
-    else:
-        shadow_labels, shadows, highlight_labels, highlights = classical_regions(levels, cfg)
-        shadow_rows = label_rows(shadow_labels)
-        highlight_rows = label_rows(highlight_labels)
-        shadow_limit = np.full(centres.size, np.nan, dtype=np.float32)
-        highlight_limit = shadow_limit
-        step = 1
-    band_rows = centres.take(edges)
-    return _new_segmentation(
-        grid_highlight_labels=highlight_labels,
-        grid_shadow_labels=shadow_labels,
-        row_step=step,
-        highlight_rows=highlight_rows,
-        shadow_rows=shadow_rows,
-        highlights=highlights,
-        shadows=shadows,
+    min_shadow_rows = cfg.min_shadow_length_m / sample_m
+    min_highlight_rows = cfg.min_highlight_length_m / sample_m
+    shadows = tuple(r for r in regions if r.kind == "shadow" and r.row_stop - r.row_start >= min_shadow_rows
+                    and r.n_cols >= cfg.min_shadow_beams)
+    highlights = tuple(r for r in regions if r.kind == "highlight" and r.row_stop - r.row_start >= min_highlight_rows)
+    labels = labelled.labels
+    band_rows = np.minimum(edges * d + np.array([[0], [d - 1]]), n_rows - 1)
+    return Segmentation(
         levels=levels,
         db_per_level=db_per_level,
-        smooth_samples=cfg.smooth_samples,
-        smooth_beams=cfg.smooth_beams,
-        level_rows=centres,
+        sample_m=sample_m,
+        row_step=d,
+        grid=grid,
         grid_background=background,
-        grid_shadow_limit=shadow_limit,
-        grid_highlight_limit=highlight_limit,
-        seabed_floor=seabed_floor,
-        insonified_rows=np.repeat(band, d)[:n_rows],
+        sigma=float(sigma),
+        noise_level=noise,
+        shadow_offset=float(shadow_offset),
+        highlight_offset=float(highlight_offset),
+        grid_highlight_labels=labels[:, n_cols + 1 :],
+        grid_shadow_labels=labels[:, :n_cols],
+        highlight_rows=(first[:, n_cols + 1 :], last[:, n_cols + 1 :]),
+        shadow_rows=(first[:, :n_cols], last[:, :n_cols]),
+        highlights=highlights,
+        shadows=shadows,
+        band_grid_rows=band,
         band_start_rows=band_rows[0],
         band_stop_rows=band_rows[1],
         method=cfg.method,
     )
 
 
-def _new_segmentation(**fields: object) -> Segmentation:
-    """``Segmentation(**fields)`` (every field by name) without the frozen ``__init__``'s per-field setattr.
-
-    Filling the new instance's ``__dict__`` gives the same object (same attributes; the
-    cached properties live in that ``__dict__`` too), in a fraction of the time.
-    """
-    result = object.__new__(Segmentation)
-    result.__dict__.update(fields)
-    return result
+def _classical(levels: Levels, db_per_level: float, sample_m: float, cfg: SegmentationConfig) -> Segmentation:
+    """The paper's adaptive threshold (:mod:`perception.shadows.segmentation.classical`) at full resolution."""
+    n_rows, n_cols = levels.shape
+    shadow_labels, shadows, highlight_labels, highlights = classical_regions(levels, cfg)
+    grid = np.asarray(levels, dtype=np.float32)
+    background = np.median(grid, axis=1).astype(np.float32)
+    return Segmentation(
+        levels=levels,
+        db_per_level=db_per_level,
+        sample_m=sample_m,
+        row_step=1,
+        grid=grid,
+        grid_background=background,
+        sigma=math.nan,
+        noise_level=math.nan,
+        shadow_offset=math.nan,
+        highlight_offset=math.nan,
+        grid_highlight_labels=highlight_labels,
+        grid_shadow_labels=shadow_labels,
+        highlight_rows=label_rows(highlight_labels),
+        shadow_rows=label_rows(shadow_labels),
+        highlights=highlights,
+        shadows=shadows,
+        band_grid_rows=np.ones(n_rows, dtype=bool),
+        band_start_rows=np.zeros(n_cols, dtype=np.intp),
+        band_stop_rows=np.full(n_cols, n_rows - 1, dtype=np.intp),
+        method=cfg.method,
+    )
 
 
 def _core_pixels(
@@ -252,20 +249,15 @@ def _core_pixels(
     """Per label of the side-by-side masks, its grid pixels in the core, shape (n_labels,).
 
     Shadow pixels (left of the blank column) below their row's ``shadow_core``, highlight
-    pixels (right of it) above ``highlight_core``: the counts :func:`with_core` takes from
-    whole-grid core masks, read at the labelled pixels only.
+    pixels (right of it) above ``highlight_core``.
     """
     n_rows, n_cols = grid.shape
     pixels = labelled.pixels
     if pixels is None or pixels.size == 0:
         return np.zeros(labelled.n_labels, dtype=np.int64)
-    # Both core masks side by side like the labelled masks, over the rows holding labelled
-    # pixels (the only ones read): each labelled pixel's flat index reads its own test.
-    # The blank column is never read.
-    lo, hi = int(labelled.rows[0]), int(labelled.rows[-1]) + 1
-    core = np.empty((n_rows, 2 * n_cols + 1), dtype=bool)
-    np.less(grid[lo:hi], shadow_core[lo:hi, None], out=core[lo:hi, :n_cols])
-    np.greater(grid[lo:hi], highlight_core[lo:hi, None], out=core[lo:hi, n_cols + 1 :])
+    core = np.zeros((n_rows, 2 * n_cols + 1), dtype=bool)
+    np.less(grid, shadow_core[:, None], out=core[:, :n_cols])
+    np.greater(grid, highlight_core[:, None], out=core[:, n_cols + 1 :])
     return np.bincount(labelled.pixel_labels[core.ravel().take(pixels)], minlength=labelled.n_labels)
 
 
