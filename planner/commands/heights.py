@@ -14,6 +14,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 import tempfile
 from collections.abc import Iterator, Sequence
@@ -102,21 +103,6 @@ def frames_of(items: Sequence[LabelledFrame]) -> Iterator[SonarFrame]:
                 k += 1
 
 
-def check_geometry(frames: Sequence[LabelledFrame]) -> None:
-    """Raise :class:`UsageError` when a frame's range samples, beams or aperture differ."""
-    first = frames[0]
-    for item in frames[1:]:
-        if not item.frame.same_geometry(first.frame):
-            a, b = first.frame, item.frame
-            raise UsageError(
-                f"{item.label}: frame geometry differs from {first.label} "
-                f"({b.n_samples} samples x {b.n_beams} beams, window "
-                f"{b.window_m[0]:.4f}-{b.window_m[1]:.4f} m vs {a.n_samples} x {a.n_beams}, "
-                f"{a.window_m[0]:.4f}-{a.window_m[1]:.4f} m); all frames must share range "
-                "samples, beam azimuths and elevation aperture"
-            )
-
-
 def resolve_altitudes(
     frames: Sequence[LabelledFrame], *, delta_h_m: float | None, altitude_m: float | None
 ) -> tuple[list[float], list[float]]:
@@ -172,11 +158,21 @@ def _number(value: float | None, digits: int) -> float | None:
     return round(float(value), digits)
 
 
-def target_record(target: TargetHeight) -> dict[str, Any]:
-    """One target of the JSON document (required fields first, extras after)."""
+def _with_labels(text: str, labels: Sequence[str]) -> str:
+    """``text`` with each "frame i" of the pipeline's reasons named by its file label."""
+    return re.sub(r"\bframe (\d+)", lambda m: labels[int(m.group(1))] if int(m.group(1)) < len(labels) else m.group(0),
+                  text)
+
+
+def target_record(target: TargetHeight, labels: Sequence[str] = ()) -> dict[str, Any]:
+    """One target of the JSON document (required fields first, extras after).
+
+    ``azimuth_deg`` and ``range_m`` are always numbers (heights-command.md); a target
+    without a height has a ``reason`` naming the frames (by ``labels``) and what each lacked.
+    """
     record: dict[str, Any] = {
-        "azimuth_deg": _number(math.degrees(target.azimuth_rad), 3),
-        "range_m": _number(target.range_m, 5),
+        "azimuth_deg": round(float(math.degrees(target.azimuth_rad)), 3),
+        "range_m": round(float(target.range_m), 5),
         "shadow_end_m": _number(target.shadow_end_m, 5),
         "height_m": _number(target.height_m, 5),
         "height_std_m": _number(target.height_std_m, 5),
@@ -184,9 +180,15 @@ def target_record(target: TargetHeight) -> dict[str, Any]:
         "frames_seen": target.frames_seen,
         "first_frame": target.first_frame_index,
         "ref_altitude_m": _number(target.ref_altitude_m, 4),
+        "shadow_start": target.shadow_start,
     }
+    if target.frame_reasons:
+        record["frame_reasons"] = [
+            {"frame": labels[i] if i < len(labels) else i, "reason": _with_labels(why, labels)}
+            for i, why in target.frame_reasons
+        ]
     if target.height_m is None:
-        record["reason"] = target.reason or "no height"
+        record["reason"] = _with_labels(target.reason or "no height", labels)
     return record
 
 
@@ -197,7 +199,7 @@ def heights_document(
     return {
         "frames": [f.label for f in frames],
         "delta_h_m": [round(float(d), 6) for d in deltas],
-        "targets": [target_record(t) for t in targets],
+        "targets": [target_record(t, [f.label for f in frames]) for t in targets],
     }
 
 
@@ -247,7 +249,6 @@ def compute(
 ) -> dict[str, Any]:
     """Load, check and process the frames; returns the JSON document."""
     frames = load_all(paths)
-    check_geometry(frames)
     altitudes, deltas = resolve_altitudes(frames, delta_h_m=delta_h_m, altitude_m=altitude_m)
     pipeline = HeightPipeline()
     for frame, altitude, delta in zip(frames_of(frames), altitudes, deltas, strict=True):

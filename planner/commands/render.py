@@ -13,10 +13,11 @@ One frame per (position, heading, altitude), positions from the scene's viewpoin
 ``--north-m/--east-m`` or ``--line`` give them; frames are stamped 1 / frame rate apart from
 t = 0. Without ``--tilt-deg`` the tilt is chosen per frame so that the targets in view
 and their shadows sit in the vertical beam (:func:`sim_harness.sonar.viewpoint.choose_tilt_rad`).
-Writes into DIR (default ``render-<scene>``):
-``<scene>_<i>_alt<M>m.npz`` (frame-format.md, with ``altitude_m`` and ``sonar_depth_m``),
-``<same>.truth.npz`` (label and owner images), ``<same>.png`` (preview: polar and fan side by
-side) and ``truth.json`` (per frame: file, pose, per-target shadow truth).
+Writes into DIR (default ``render-<scene>``) only the frames, ``<scene>_<i>_alt<M>m.npz``
+(frame-format.md, with ``altitude_m`` and ``sonar_depth_m``), so that ``shadowsurvey heights
+DIR/*.npz`` reads exactly them; the truth goes to ``DIR/truth/``: ``<same>.labels.npz``
+(label and owner images), ``<same>.png`` (preview: polar and fan side by side) and
+``truth.json`` (per frame: its files, relative to DIR, the pose and each target's shadow truth).
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ from sim_harness.sonar.scene import builtin_scenes, load_scene
 from sim_harness.sonar.truth import FrameTruth
 from sim_harness.sonar.viewpoint import scene_pose
 
+#: Subfolder of the output folder that holds the truth (labels, previews, truth.json).
+TRUTH_FOLDER = "truth"
 #: Height of the preview PNG, pixels (polar image left, fan image right).
 PREVIEW_HEIGHT_PX = 800
 
@@ -150,6 +153,8 @@ def run(args: argparse.Namespace) -> int:
     renderer = SonarRenderer(scene.world, config)
     out = args.out if args.out is not None else Path(f"render-{scene.name}")
     out.mkdir(parents=True, exist_ok=True)
+    truth_dir = out / TRUTH_FOLDER
+    truth_dir.mkdir(parents=True, exist_ok=True)
     headings = [None] if args.heading_deg is None else [math.radians(h) for h in args.heading_deg]
     tilt = None if args.tilt_deg is None else math.radians(args.tilt_deg)
     records: list[dict[str, Any]] = []
@@ -164,10 +169,12 @@ def run(args: argparse.Namespace) -> int:
                 frame, truth = renderer.render(pose, timestamp, altitude_m=altitude)
                 stem = f"{scene.name}_{index:03d}_alt{altitude:.2f}m"
                 save_frame(out / f"{stem}.npz", frame)
-                _save_truth_images(out / f"{stem}.truth.npz", truth)
+                _save_truth_images(truth_dir / f"{stem}.labels.npz", truth)
                 if not args.no_preview:
-                    _write_png(out / f"{stem}.png", preview_image(frame))
-                record = {"frame": f"{stem}.npz", "labels": f"{stem}.truth.npz", **truth.to_json_dict()}
+                    _write_png(truth_dir / f"{stem}.png", preview_image(frame))
+                # (paths relative to the output folder)
+                record = {"frame": f"{stem}.npz", "labels": f"{TRUTH_FOLDER}/{stem}.labels.npz",
+                          **truth.to_json_dict()}
                 records.append(record)
                 frames.append(frame)
                 seen = ", ".join(
@@ -184,13 +191,13 @@ def run(args: argparse.Namespace) -> int:
         "sonar": _config_json(config),
         "frames": records,
     }
-    _atomic_write(out / "truth.json", json.dumps(document, indent=1).encode("utf-8"))
+    _atomic_write(truth_dir / "truth.json", json.dumps(document, indent=1).encode("utf-8"))
     if args.aris is not None:
         from perception.sonar_io.aris.reader import write_aris
 
         write_aris(args.aris, frames, sound_speed_m_s=config.sound_speed_m_s)
         print(f"wrote {args.aris}")
-    print(f"wrote {index} frame(s) and truth.json to {out}")
+    print(f"wrote {index} frame(s) to {out} and their truth to {truth_dir}")
     return 0
 
 

@@ -213,13 +213,24 @@ def paper_scene(index: int, orientation_deg: float, *, samples: int = 1000, wind
 
 
 def frame_config(member: FamilyMember, spec: FrameSpec, *, seed: int) -> SonarConfig:
-    """The :class:`SonarConfig` of one frame: the member's physics in the frame's window."""
+    """The :class:`SonarConfig` of one frame: the member's physics in the frame's window.
+
+    A member whose TVG restores less than the historical 30 log R plus absorption has its
+    gain raised by what the historical TVG gives at the middle of the window, as an operator
+    sets the gain for the window (else the far seabed of a long window sinks under the
+    noise, which no method can see through); the TVG's shape over the window stays the member's.
+    """
     base = SonarConfig(window_start_m=spec.window_start_m, window_length_m=spec.window_length_m,
                        samples_per_beam=spec.samples, seed=seed)
     config = member.config(base)
     changes: dict[str, object] = {}
-    if spec.gain_offset_db:
-        changes["gain_db"] = config.gain_db + spec.gain_offset_db
+    r_mid = spec.window_start_m + 0.5 * spec.window_length_m
+    historical = 30.0 * math.log10(r_mid) + 2.0 * base.absorption_db_per_m * r_mid
+    own = config.tvg_db_per_decade * math.log10(r_mid) + (2.0 * config.absorption_db_per_m * r_mid
+                                                          if config.tvg_absorption else 0.0)
+    compensation = max(historical - own, 0.0)
+    if spec.gain_offset_db or compensation:
+        changes["gain_db"] = config.gain_db + spec.gain_offset_db + compensation
     if spec.output is not None and spec.output != config.physics.output:
         if spec.output not in OUTPUTS:
             raise ValueError(f"unknown output {spec.output!r}")

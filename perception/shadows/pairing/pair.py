@@ -7,7 +7,8 @@ are found from the shadows:
 
 1. the beams of each shadow region are split into *runs* of neighbouring beams along which
    the shadow's first and last rows change smoothly (:mod:`perception.shadows.pairing.runs`):
-   neighbouring targets whose shadows merged into one region fall apart at the jump;
+   neighbouring targets whose shadows merged into one region fall apart at the jump (unless
+   one highlight precedes the runs on both sides: then the jump is one target's shape);
 2. in each beam of a run, the highlight that ends nearest before the shadow starts (at
    most ``max_gap_m`` before: the gap holds the target's dim top, or the seabed in front
    of a tall target at the same slant range as its top; not after it) precedes the
@@ -207,10 +208,16 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
         last = last_all[s.label, cols].tolist()
         shadow_extents = (first_all[s.label, box], last_all[s.label, box], last_all[s.label, box] >= 0)
         runs = split_runs(cols, first, last, jump_rows=jump_rows, min_beams=cfg.min_run_beams)
-        blocks = []
+        blocks: list[tuple[int, int, int]] = []
         for p0, p1 in runs:
             labels = _beam_highlights(segmentation, cols[p0:p1], first[p0:p1], max_rise)
-            blocks.extend((p0 + a, p0 + b, v) for a, b, v in _blocks(labels, cfg.min_run_beams))
+            for a, b, v in _blocks(labels, cfg.min_run_beams):
+                if blocks and blocks[-1][2] == v >= 0 and blocks[-1][1] == p0 + a:
+                    # A jump of the shadow behind one highlight is the target's own shape
+                    # (a corner, a rounded side), not a second target.
+                    blocks[-1] = (blocks[-1][0], p0 + b, v)
+                else:
+                    blocks.append((p0 + a, p0 + b, v))
         for p0, p1, label in blocks:
             columns = cols[p0:p1]
             t = highlights.get(label)

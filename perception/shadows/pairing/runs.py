@@ -18,7 +18,7 @@ JUMP_MIN_M = 0.04
 JUMP_FRACTION = 0.2
 
 #: Fewest beams of a regrouped target (when its shadow region holds more than one).
-MIN_RUN_BEAMS = 3
+MIN_RUN_BEAMS = 4
 
 #: Neighbouring beams of one target may be this far apart (beams without its highlight).
 MAX_BEAM_STEP = 3

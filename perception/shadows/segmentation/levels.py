@@ -27,14 +27,31 @@ def power_table(db_per_level: float) -> NDArray[np.float64]:
     return table
 
 
+#: A linear image's values are floored at this far below the median of its positive values,
+#: dB: zeros (quantised noise, blanked samples) would otherwise sit arbitrarily far down.
+LINEAR_FLOOR_DB = 50.0
+
+
+@functools.lru_cache(maxsize=4)
+def _uint16_half_lsb_table(floor: float) -> NDArray[np.float32]:
+    """dB of the 65536 uint16 values, each at least ``floor`` (linear), read-only."""
+    values = np.maximum(np.arange(65536, dtype=np.float64), 0.5)
+    table = (10.0 * np.log10(np.maximum(values, floor))).astype(np.float32)
+    table.flags.writeable = False
+    return table
+
+
 def as_levels(
     image: NDArray[np.generic], *, uint8_db_range: float | None = 80.0
 ) -> tuple[Levels, float]:
     """The image as levels proportional to dB, and the dB per level.
 
     uint8 with ``uint8_db_range``: the image itself (no copy), ``uint8_db_range / 255``
-    dB per level. Otherwise the image is linear power and becomes
-    ``10 log10(max(x, 1e-12))`` dB as float32 (a new array), 1 dB per level.
+    dB per level (ARIS display levels). Otherwise the image is linear echo (power, or
+    amplitude: its dB are then half as large, which the segmentation's spread-relative
+    thresholds absorb) and becomes ``10 log10(x)`` dB as float32 (a new array), 1 dB per
+    level, each value floored at half an integer step (uint16) and at ``LINEAR_FLOOR_DB``
+    below the median of the positive values.
 
     Raises
     ------
@@ -48,12 +65,20 @@ def as_levels(
         raise ValueError(f"image dtype must be uint8, uint16, float32 or float64, got {array.dtype}")
     if array.dtype == np.uint8 and uint8_db_range is not None:
         return np.ascontiguousarray(array, dtype=np.uint8), float(uint8_db_range) / 255.0
+    if array.dtype == np.uint16:
+        sample = array[::7, ::3]
+        positive = sample[sample > 0]
+        floor = float(np.median(positive)) * 10.0 ** (-LINEAR_FLOOR_DB / 10.0) if positive.size else 0.5
+        return _uint16_half_lsb_table(max(floor, 0.5))[array], 1.0
     power = np.ascontiguousarray(array, dtype=np.float32)
     if array.dtype.kind == "f" and not np.all(np.isfinite(power)):
         raise ValueError("image must be finite everywhere")
     if np.any(power < 0):
         raise ValueError("a linear image must be >= 0 everywhere")
-    db = np.asarray(cv2.log(np.maximum(power, np.float32(1e-12))), dtype=np.float32)
+    sample = power[::7, ::3]
+    positive = sample[sample > 0]
+    floor = float(np.median(positive)) * 10.0 ** (-LINEAR_FLOOR_DB / 10.0) if positive.size else 1e-12
+    db = np.asarray(cv2.log(np.maximum(power, np.float32(max(floor, 1e-30)))), dtype=np.float32)
     db *= np.float32(10.0 / np.log(10.0))
     return db, 1.0
 
@@ -134,6 +159,35 @@ def level_spread(grid: NDArray[np.float32], background: NDArray[np.float32], row
     k25, k75 = int(0.25 * (kept.size - 1)), int(0.75 * (kept.size - 1))
     part = np.partition(kept, (k25, k75))
     return float(part[k75] - part[k25]) / 1.349
+
+
+def row_spread(grid: NDArray[np.float32], background: NDArray[np.float32], *, block_rows: int) -> NDArray[np.float32]:
+    """Each grid row's spread of levels about its seabed level, from blocks of rows.
+
+    Per block of ``block_rows`` rows, the smaller of ``(q75 - q50) / 0.6745`` and
+    ``(q90 - q75) / 0.6071`` of the residuals (as for a normal): targets' shadows, below, widen
+    only the first, their highlights, above, only the second; then a running median over
+    three blocks; interpolated to every row.
+    Where noise dominates (one look, whatever the seabed's speckle) it is wider than the
+    seabed's spread, which thresholds must respect there.
+
+    Returns
+    -------
+    ndarray, shape (n_rows,), float32
+    """
+    n_rows, n_cols = grid.shape
+    block = max(1, min(int(block_rows), n_rows))
+    n_blocks = n_rows // block
+    residual = (grid[: n_blocks * block] - background[: n_blocks * block, None]).reshape(n_blocks, block * n_cols)
+    m = residual.shape[1]
+    k50, k75, k90 = int(0.50 * (m - 1)), int(0.75 * (m - 1)), int(0.90 * (m - 1))
+    part = np.partition(residual, (k50, k75, k90), axis=1)
+    spread = np.minimum((part[:, k75] - part[:, k50]) / np.float32(0.6745),
+                        (part[:, k90] - part[:, k75]) / np.float32(0.6071))
+    if spread.size >= 3:
+        spread = np.maximum(np.minimum(spread, np.maximum(np.roll(spread, 1), np.roll(spread, -1))), 0)
+    centres = (np.arange(n_blocks) + 0.5) * block - 0.5
+    return np.interp(np.arange(n_rows), centres, spread).astype(np.float32)
 
 
 def percentile90(values: NDArray[np.float32]) -> float:

@@ -65,6 +65,7 @@ from perception.shadows.segmentation.levels import (
     block_levels,
     level_spread,
     row_background,
+    row_spread,
     running_min_max,
 )
 from perception.shadows.segmentation.result import LABEL_HIGHLIGHT, LABEL_OTHER, LABEL_SHADOW, Segmentation
@@ -90,10 +91,16 @@ __all__ = [
 BACKGROUND_MEDIAN_M = 0.25
 #: Beams whose band edge lies this far (m of range) from the fitted curve count as moved by a shadow.
 BAND_EDGE_TOLERANCE_M = 0.015
+#: Rows hold seabed this fraction of the way or more from the noise floor to the seabed's
+#: brightest rows (95th percentile of the row levels).
+BAND_FRACTION = 0.2
+#: A row's own spread replaces the frame's where it is this many times wider.
+WIDE_SPREAD = 1.5
 #: Percentile of the row levels taken as the noise floor.
 NOISE_PERCENTILE = 2.0
-#: Spread assumed (level units, as dB) for a frame too uniform to measure one.
-MIN_SIGMA_DB = 0.05
+#: Least spread (dB) of a frame: an image without speckle (smooth, or quantised to few levels) would
+#: otherwise have every small systematic change of level taken for a shadow or a highlight.
+MIN_SIGMA_DB = 0.5
 
 
 def sample_spacing_m(range_m: NDArray[np.float64] | None, n_samples: int) -> float:
@@ -143,7 +150,10 @@ def segment(
     median_blocks = max(1, int(round(BACKGROUND_MEDIAN_M / (block * cell_m)))) | 1
     non_negative = levels.dtype == np.uint8
     background = row_background(grid, block_rows=block, median_blocks=median_blocks, non_negative=non_negative)
-    noise = float(np.percentile(background, NOISE_PERCENTILE))
+    # The noise floor: the darkest rows, blanked ones (all at the floor of the levels) aside.
+    lowest = float(background.min())
+    unblanked = background[background > lowest + 1e-3]
+    noise = float(np.percentile(unblanked if unblanked.size >= 4 else background, NOISE_PERCENTILE))
     # The spread, first over the rows half-way or more from the noise floor to the brightest
     # (surely seabed when there is any), then over the band it finds.
     upper = background >= 0.5 * (noise + float(np.percentile(background, 95)))
@@ -151,8 +161,17 @@ def segment(
     lit_level = noise + cfg.band_sigmas * sigma0
     band = longest_run(background >= lit_level)
     sigma = max(level_spread(grid, background, band), MIN_SIGMA_DB / db_per_level) if band.any() else sigma0
-    lit_level = noise + cfg.band_sigmas * sigma
+    # A row holds seabed where its level stands clear of the noise floor: by band_sigmas
+    # spreads, and by a fifth of the way from the floor to the seabed's brightest rows
+    # (noise of one look spreads wider than a many-look seabed's speckle).
+    top = float(np.percentile(background, 95))
+    lit_level = noise + max(cfg.band_sigmas * sigma, BAND_FRACTION * (top - noise))
     band = longest_run(background >= lit_level)
+    # Thresholds per row: the frame's spread, or the row's own where it is clearly wider
+    # (one-look noise where the seabed has many looks; a target's shadow and highlight in a
+    # row widen the row's own spread by less than that).
+    own = row_spread(grid, background, block_rows=block)
+    spread = np.where(own > np.float32(WIDE_SPREAD * sigma), own, np.float32(sigma)).astype(np.float32)
     tolerance = max(1.0, BAND_EDGE_TOLERANCE_M / cell_m)
     edges = band_edges(grid, band, level=lit_level, stride=1, tolerance_rows=tolerance)
     # Near the band's edges a block straddles both sides: shadows are tested against the
@@ -160,8 +179,8 @@ def segment(
     low, high = running_min_max(background, size=2 * block + 1)
     shadow_offset = cfg.shadow_sigmas * sigma
     highlight_offset = cfg.highlight_sigmas * sigma
-    shadow_limit = low - np.float32(shadow_offset)
-    highlight_limit = np.maximum(high, np.float32(lit_level)) + np.float32(highlight_offset)
+    shadow_limit = low - np.float32(cfg.shadow_sigmas) * spread
+    highlight_limit = np.maximum(high, np.float32(lit_level)) + np.float32(cfg.highlight_sigmas) * spread
     # Both masks side by side (a blank column between): one labelling pass.
     both = np.zeros((n_grid, 2 * n_cols + 1), dtype=np.uint8)
     # The grid cell at each beam's band edge straddles the edge (half dark): not shadow.
@@ -171,8 +190,8 @@ def segment(
     np.greater(grid, highlight_limit[:, None], out=both[:, n_cols + 1 :].view(bool))
     both[:, n_cols + 1 :] &= in_band
     labelled = label_mask(both.view(bool))
-    shadow_core = low - np.float32(cfg.shadow_core_sigmas * sigma)
-    highlight_core = highlight_limit + np.float32((cfg.highlight_core_sigmas - cfg.highlight_sigmas) * sigma)
+    shadow_core = low - np.float32(cfg.shadow_core_sigmas) * spread
+    highlight_core = highlight_limit + np.float32(cfg.highlight_core_sigmas - cfg.highlight_sigmas) * spread
     core_px = _core_pixels(labelled, grid, shadow_core, highlight_core) * d
     min_core = (int(math.ceil(cfg.min_shadow_core_m / sample_m)), int(math.ceil(cfg.min_highlight_core_m / sample_m)))
     regions, (first, last) = labelled_regions(

@@ -18,8 +18,11 @@ def test_render_paper_tank_at_two_altitudes(tmp_path: Path) -> None:
     out = tmp_path / "tank"
     code = main(["render", "paper-tank", "--altitude", "0.5", "0.6", "--out", str(out)])
     assert code == 0
-    doc = json.loads((out / "truth.json").read_text())
+    doc = json.loads((out / "truth" / "truth.json").read_text())
     assert doc["scene"] == "paper-tank" and len(doc["frames"]) == 2
+    # Only the frames at the top of the output folder: `heights OUT/*.npz` reads just them.
+    assert sorted(p.name for p in out.glob("*.npz")) == sorted(f["frame"] for f in doc["frames"])
+    assert sorted(p.name for p in out.iterdir() if p.is_file()) == sorted(f["frame"] for f in doc["frames"])
     for record, altitude in zip(doc["frames"], (0.5, 0.6), strict=True):
         (frame,) = load_frames(out / record["frame"])
         assert frame.altitude_m == pytest.approx(altitude)
@@ -27,7 +30,7 @@ def test_render_paper_tank_at_two_altitudes(tmp_path: Path) -> None:
         assert frame.image.shape == (1000, 128)
         labels = np.load(out / record["labels"])["labels"]
         assert labels.shape == frame.image.shape
-        assert (out / record["frame"].replace(".npz", ".png")).stat().st_size > 10_000
+        assert (out / "truth" / record["frame"].replace(".npz", ".png")).stat().st_size > 10_000
         targets = {t["target_id"]: t for t in record["targets"]}
         assert set(targets) == {"1", "2", "3", "4", "5"}
         for t in targets.values():
@@ -46,8 +49,8 @@ def test_heights_measures_the_rendered_paper_tank(tmp_path: Path) -> None:
     """The dry run of the paper's experiment: two altitudes 0.1 m apart, heights from shadows."""
     out = tmp_path / "tank"
     assert main(["render", "paper-tank", "--altitude", "0.5", "0.6", "--out", str(out), "--no-preview"]) == 0
-    doc = json.loads((out / "truth.json").read_text())
-    frames = [str(out / f["frame"]) for f in doc["frames"]]
+    doc = json.loads((out / "truth" / "truth.json").read_text())
+    frames = sorted(str(p) for p in out.glob("*.npz"))
     assert main(["heights", *frames, "--json", str(tmp_path / "heights.json")]) == 0
     measured = json.loads((tmp_path / "heights.json").read_text())["targets"]
     for truth in doc["frames"][0]["targets"]:
@@ -66,12 +69,12 @@ def test_render_sweep_with_tilt_and_aris(tmp_path: Path) -> None:
         "--out", str(out), "--aris", str(aris), "--speckle-looks", "1",
     ])
     assert code == 0
-    doc = json.loads((out / "truth.json").read_text())
+    doc = json.loads((out / "truth" / "truth.json").read_text())
     assert len(doc["frames"]) == 6
     east = sorted({round(f["pose"]["east_m"], 6) for f in doc["frames"]})
     assert east == [14.0, 15.0, 16.0]
     assert all(f["pose"]["tilt_deg"] == pytest.approx(20.0) for f in doc["frames"])
-    assert not list(out.glob("*.png"))
+    assert not list(out.rglob("*.png"))
     with ArisRecording(aris) as rec:
         assert len(rec) == 6
         first = rec[0]
