@@ -87,6 +87,16 @@ class HeightsConfig:
     rounded_window_m : (float, float)
         Range window before the shadow start over which that slope is fitted, m: from
         ``window[0]`` (beyond the pulse blur of the edge) to ``window[1]`` before it.
+    check_start_with_ends : bool
+        Check the shadow's start against its ends over the altitudes, and take the ends'
+        height where they show the start was not the far top edge
+        (:mod:`perception.heights.near_foot`).
+    ends_range_std_m, ends_range_std_samples : float
+        1-sigma of a shadow end's systematic error per frame, m and range samples (added in
+        quadrature to its noise), in the ends' triangulation that checks the shadow's start
+        (:mod:`perception.heights.near_foot`): it rests on the ends' change with altitude,
+        which an end's error of a millimetre (the blur and the edge's slope across the beams
+        change with the viewpoint) moves by several per cent of a small target's height.
     """
 
     segmentation: SegmentationConfig = field(default_factory=SegmentationConfig)
@@ -102,13 +112,16 @@ class HeightsConfig:
     outlier_floor_fraction: float = 0.05
     seabed_onset_altitude: bool = True
     onset_angle_std_rad: float = math.radians(0.5)
-    onset_model_relative_std: float = 0.01
+    onset_model_relative_std: float = 0.015
     edge_bias_samples: float = 0.3
     rounded_targets: bool = True
     rounded_summit: bool = False
     rounded_min_sigmas: float = 3.0
     rounded_slope_db_per_m: float = 250.0
     rounded_window_m: tuple[float, float] = (0.006, 0.020)
+    check_start_with_ends: bool = True
+    ends_range_std_m: float = 0.0015
+    ends_range_std_samples: float = 0.5
 
     def __post_init__(self) -> None:
         if self.min_frames < 1:

@@ -72,13 +72,11 @@ def shared_reference_altitude(
     h0, sig = np.array(values), np.array(sigmas)
     onset = onset_reference_altitude(onsets) if config.seabed_onset_altitude else None
     if onset is not None:
-        agree = np.abs(h0 - onset[0]) <= 3 * np.hypot(sig, onset[1])
-        # The onset is well conditioned, a target's own H0 is not (Eq. 2): targets that
-        # contradict the onset are the outliers, unless most do (two or more): then the
-        # onset is (wrong tilt, a different seabed level near the sonar) and is dropped.
-        disagree = int(np.count_nonzero(~agree))
-        if not (disagree >= 2 and disagree > h0.size / 2):
-            return inverse_variance_mean(np.append(h0[agree], onset[0]), np.append(sig[agree], onset[1]))
+        # The onset is well conditioned, a target's own H0 is not (Eq. 2's H^2 / dH, and
+        # the edges' systematic errors that its sigma does not hold): only targets whose
+        # own H0 is about as sure as the onset's, and agrees with it, join it.
+        join = (np.abs(h0 - onset[0]) <= 3 * np.hypot(sig, onset[1])) & (sig <= 2.0 * onset[1])
+        return inverse_variance_mean(np.append(h0[join], onset[0]), np.append(sig[join], onset[1]))
     if h0.size < 2:
         return None
     keep = np.abs(h0 - np.median(h0)) <= 3 * np.maximum(sig, 1e-6)

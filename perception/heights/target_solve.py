@@ -28,7 +28,7 @@ from perception.errors import SolverError
 from perception.heights.config import HeightsConfig
 from perception.heights.least_squares import HeightEstimate, ShadowObservation, solve_height
 from perception.heights.models import altitude_groups
-from perception.heights.near_foot import EndFit, EndFrame, end_triangulation, near_foot_check
+from perception.heights.near_foot import EndFrame, StartCheck, check_start
 from perception.heights.results import TargetHeight
 from perception.heights.rounded import RoundedTopFit, fit_rounded_top, grazing_tan2
 from perception.tracking.tracker import Detection
@@ -123,12 +123,12 @@ class TargetSolver:
                     # rounded fit's summit (when above) and within its sigma; their RMS
                     # is the sharp-edge height's model error.
                     std = math.hypot(std, max(0.0, fit.height_m - height), fit.height_std_m)
-                if altitudes is not None and not rounded:
+                if altitudes is not None and not rounded and cfg.check_start_with_ends:
                     known = all(math.isfinite(d.altitude_m) for d in usable)
                     h_std = (cfg.altitude_std_m or 0.0) if known else (shared[1] if shared is not None else 0.0)
-                    foot = self._near_foot(usable, altitudes, h_std)
-                    if foot is not None:
-                        height, std, start_label = foot.height_m, math.hypot(foot.height_std_m, bias_std), "near foot"
+                    check = self._check_start(usable, altitudes, h_std, (height, std))
+                    if check is not None and check.use_ends:
+                        height, std, start_label = check.fit.height_m, check.fit.height_std_m, check.label
         m = first.measurement
         if not all(math.isfinite(v) for v in position_m):
             position_m = (first.north_m, first.east_m)
@@ -175,32 +175,30 @@ class TargetSolver:
                 out.append((i, "its one-frame height disagrees with the others' (left out as an outlier)"))
         return out
 
-    def _near_foot(
-        self, usable: list[Detection], altitudes: NDArray[np.float64], altitude_std_m: float
-    ) -> EndFit | None:
-        """The ends' triangulation when the shadow starts at the near foot in every frame
-        (:mod:`perception.heights.near_foot`), else None."""
+    def _check_start(
+        self, usable: list[Detection], altitudes: NDArray[np.float64], altitude_std_m: float,
+        eq2_height: tuple[float, float],
+    ) -> StartCheck | None:
+        """Eq. 2's height against the shadow's ends over the altitudes (:func:`check_start`);
+        None with one altitude or when the ends give no height."""
         if len(altitude_groups(altitudes)) < 2:
             return None
-        bias = self.config.edge_bias_samples
+        cfg = self.config
         ref = usable[0]
-        frames, eq2 = [], []
+        frames, near = [], []
         for d, alt in zip(usable, altitudes.tolist(), strict=True):
             m = d.measurement
             sample = self._sample_m.get(d.frame_index, math.nan)
-            sigma_r = math.hypot(m.sigma_r_m, bias * sample if math.isfinite(sample) else 0.0)
+            per_sample = cfg.ends_range_std_samples * sample if math.isfinite(sample) else 0.0
+            sigma_r = math.sqrt(m.sigma_r_m**2 + per_sample**2 + cfg.ends_range_std_m**2)
             offset = 0.0
             moved = (d.sonar_north_m - ref.sonar_north_m, d.sonar_east_m - ref.sonar_east_m)
             bearing = d.heading_rad + m.azimuth_rad
             if all(math.isfinite(v) for v in (*moved, bearing)):
                 offset = -(moved[0] * math.cos(bearing) + moved[1] * math.sin(bearing))
             frames.append(EndFrame(m.r_top_m, m.r_end_m, sigma_r, alt, altitude_std_m, offset))
-            t, e = m.r_top_m, m.r_end_m
-            eq2.append((alt * (e - t) / e, alt * sigma_r * math.sqrt(t * t + e * e) / (e * e)))
-        fit = end_triangulation(frames)
-        if fit is None or not near_foot_check(frames, fit, eq2):
-            return None
-        return fit
+            near.append(m.r_near_m)
+        return check_start(frames, eq2_height, near)
 
     @staticmethod
     def _altitudes(

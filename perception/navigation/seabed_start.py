@@ -5,14 +5,14 @@ seabed, from the slant range at which the steepest ray of its vertical aperture 
 (:func:`perception.geometry.altitude_from_band_start`). Finding that onset in the image
 gives the sonar's altitude, independent of the altimeter.
 
-Method: average the image rows over the beams near the boresight, smooth the profile
-lightly along range, take the dark (water) level from a low percentile of the profile and
-the bright (seabed) level from the median of the rows above a first guess, and find the
-first row from which the profile stays above the half-way level; linear interpolation
-between that row and the previous one gives the sub-sample slant range. A symmetric
-smoothing window does not move the half-way point of a step, and averaging beams whose
-onsets differ slightly puts it at their mean onset range, which is what the altitude
-conversion uses.
+Method: average the echo power of the rows over the beams near the boresight, smooth the
+profile lightly along range, take the dark (water) level from a low percentile and the
+seabed's level from the median just after a first guess of the onset, and find the first
+row from which the profile stays within 3 dB of that level (the aperture's -3 dB edge,
+whether the beam's pattern ends sharply or rolls off); linear interpolation between that
+row and the previous one gives the sub-sample slant range. Averaging beams whose onsets
+differ slightly puts it at their mean onset range, which is what the altitude conversion
+uses.
 
 Frames and signs: :mod:`perception.geometry` and :mod:`perception.sonar_io.frame`.
 """
@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from perception.errors import GeometryError, SeabedNotFoundError
 from perception.geometry import sonar_to_ned
+from perception.shadows.segmentation.levels import as_levels
 from perception.sonar_io.frame import SonarFrame
 
 FloatArray = NDArray[np.float64]
@@ -82,11 +83,19 @@ def find_seabed_start(
     frame: SonarFrame,
     *,
     max_abs_azimuth_rad: float = math.radians(8.0),
-    smooth_rows: int = 5,
+    smooth_m: float = 0.01,
+    plateau_m: float = 0.05,
+    edge_db: float = 3.0,
     min_contrast: float = 4.0,
-    min_water_rows: int = 5,
+    min_water_m: float = 0.01,
 ) -> SeabedStart:
     """Find the slant range at which the insonified seabed starts.
+
+    The profile is the echo POWER (the frame's dtype read as :func:`as_levels` does, then
+    back to linear) averaged over the beams near the boresight and smoothed over
+    ``smooth_m`` of range. The onset is where it first comes within ``edge_db`` of the
+    seabed's level just after it (the median over ``plateau_m`` past a first guess): the
+    aperture's -3 dB edge, wherever the beam's pattern rolls off (a soft edge, or none).
 
     Parameters
     ----------
@@ -95,12 +104,14 @@ def find_seabed_start(
     max_abs_azimuth_rad : float
         Beams within this azimuth of the boresight are averaged (at least the one
         nearest the boresight is always used).
-    smooth_rows : int
-        Length of the moving average along range, rows (>= 1).
+    smooth_m, plateau_m : float
+        Range smoothing of the profile, and range of the seabed level after the onset, m.
+    edge_db : float
+        The onset lies this far below the seabed's level, dB of power.
     min_contrast : float
         Least (seabed - water) level difference, in units of the water-level noise.
-    min_water_rows : int
-        Least number of water rows before the onset.
+    min_water_m : float
+        Least range of water before the onset, m.
 
     Raises
     ------
@@ -108,45 +119,62 @@ def find_seabed_start(
         When the frame has no dark-then-bright onset: the seabed already fills the first
         rows (the window starts inside the band), or there is no contrast.
     """
-    if smooth_rows < 1 or min_water_rows < 1:
-        raise ValueError("smooth_rows and min_water_rows must be >= 1")
     az = frame.beam_azimuth_rad
     beams = np.flatnonzero(np.abs(az) <= max_abs_azimuth_rad)
     if beams.size == 0:
         beams = np.array([int(np.argmin(np.abs(az)))])
-    profile = np.asarray(frame.image[:, beams], dtype=np.float64).mean(axis=1)
-    smooth = _smooth(profile, smooth_rows)
-    # Water level: a low percentile. Seabed level: the median of the rows above a first
-    # half-way guess (the band may fill only a small part of the window).
+    r = frame.range_m
+    dr = frame.range_resolution_m
+    levels, db_per_level = as_levels(np.asarray(frame.image)[:, beams])
+    power = np.power(10.0, np.asarray(levels, dtype=np.float64) * (db_per_level / 10.0))
+    profile = power.mean(axis=1)
+    rows = max(1, int(round(smooth_m / dr)))
+    smooth = _smooth(profile, rows)
     lo = float(np.percentile(smooth, 5.0))
-    bright = smooth[smooth >= 0.5 * (lo + float(smooth.max()))]
-    hi = float(np.median(bright))
-    threshold = 0.5 * (lo + hi)
+    hi0 = float(smooth.max())
+    if not hi0 > lo:
+        raise SeabedNotFoundError("no seabed onset: the range profile is flat")
+    # First guess: where the profile first rises past the geometric mean of water and seabed.
+    guess_rows = np.flatnonzero(smooth >= math.sqrt(max(lo, 1e-300) * hi0))
+    if guess_rows.size == 0:
+        raise SeabedNotFoundError("no seabed onset: the range profile never rises")
+    g = int(guess_rows[0])
+    if g * dr < min_water_m or g < 2:
+        raise SeabedNotFoundError(
+            f"the seabed already fills row {g} of the window (starts at {frame.range_m[0]:.2f} m): "
+            "no water before the onset, so its range cannot be measured"
+        )
+    span = max(2, int(round(plateau_m / dr)))
+    after = smooth[g : g + span]
+    if after.size < max(2 * rows, 4):
+        raise SeabedNotFoundError("the seabed onset lies at the window's far end: no seabed after it to compare with")
+    plateau = float(np.median(after))
+    threshold = plateau * 10.0 ** (-edge_db / 10.0)
+    if not threshold > lo:
+        raise SeabedNotFoundError("seabed contrast too low for its onset")
     above = smooth >= threshold
-    # first row from which the profile stays above the threshold for smooth_rows rows
-    run = np.convolve(above.astype(np.int64), np.ones(smooth_rows, dtype=np.int64), mode="valid")
-    starts = np.flatnonzero(run == smooth_rows)
+    run = np.convolve(above.astype(np.int64), np.ones(rows, dtype=np.int64), mode="valid")
+    starts = np.flatnonzero(run == rows)
     if starts.size == 0:
-        raise SeabedNotFoundError("no seabed onset: the range profile never rises and stays above half-way")
+        raise SeabedNotFoundError("no seabed onset: the range profile never rises and stays near the seabed level")
     i = int(starts[0])
-    if i < min_water_rows:
+    if i * dr < min_water_m or i < 2:
         raise SeabedNotFoundError(
             f"the seabed already fills row {i} of the window (starts at {frame.range_m[0]:.2f} m): "
             "no water before the onset, so its range cannot be measured"
         )
-    water = smooth[: max(i - smooth_rows, 2)]
+    water = smooth[: max(i - rows, 2)]
     noise = float(np.std(water)) if water.size >= 2 else 0.0
-    contrast = (hi - lo) / max(noise, 1e-12 * max(abs(hi), 1.0))
+    contrast = (plateau - lo) / max(noise, 1e-12 * max(abs(plateau), 1.0))
     if contrast < min_contrast:
         raise SeabedNotFoundError(f"seabed contrast {contrast:.1f} is below {min_contrast}")
-    r = frame.range_m
     s0, s1 = float(smooth[i - 1]), float(smooth[i])
     frac = (threshold - s0) / (s1 - s0) if s1 > s0 else 0.5
     frac = min(max(frac, 0.0), 1.0)
-    dr = float(r[i] - r[i - 1])
-    slant = float(r[i - 1] + frac * dr)
-    slope = max((s1 - s0) / dr, 1e-12)
-    slant_std = math.sqrt((noise / slope) ** 2 + dr**2 / 12.0)
+    step = float(r[i] - r[i - 1])
+    slant = float(r[i - 1] + frac * step)
+    slope = max((s1 - s0) / step, 1e-300)
+    slant_std = math.sqrt((noise / slope) ** 2 + step**2 / 12.0)
     return SeabedStart(slant, slant_std, beams, float(contrast))
 
 
@@ -188,7 +216,6 @@ def sonar_altitude(
     angle_std_rad: float = math.radians(0.5),
     model_relative_std: float = 0.01,
     max_abs_azimuth_rad: float = math.radians(8.0),
-    smooth_rows: int = 5,
     min_contrast: float = 4.0,
 ) -> SonarAltitude:
     """Altitude of the sonar above a flat seabed from where the seabed starts in the frame.
@@ -204,7 +231,7 @@ def sonar_altitude(
         Standard deviation of the steepest ray's depression (tilt and attitude), rad.
     model_relative_std : float
         Relative error of the flat-seabed, sharp-beam-edge model.
-    max_abs_azimuth_rad, smooth_rows, min_contrast
+    max_abs_azimuth_rad, min_contrast
         Passed to :func:`find_seabed_start`.
 
     Returns
@@ -225,9 +252,7 @@ def sonar_altitude(
     roll = 0.0 if roll_rad is None and not frame.known("vehicle_roll_rad") else _angle(
         roll_rad, frame.vehicle_roll_rad, "vehicle roll"
     )
-    start = find_seabed_start(
-        frame, max_abs_azimuth_rad=max_abs_azimuth_rad, smooth_rows=smooth_rows, min_contrast=min_contrast
-    )
+    start = find_seabed_start(frame, max_abs_azimuth_rad=max_abs_azimuth_rad, min_contrast=min_contrast)
     down = steepest_down_component(
         frame.beam_azimuth_rad[start.beam_indices],
         elevation_aperture_rad=frame.elevation_aperture_rad,

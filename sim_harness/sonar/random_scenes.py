@@ -10,7 +10,7 @@ auto-window moves it when the altitude changes), the receiver gain and the outpu
 - shapes: boxes and vertical cylinders by default, stones (half-ellipsoids: rounded tops)
   and rocks (irregular lobes) on request;
 - heights 2-30 cm, at most 0.35 x the lower altitude (a taller target's shadow cannot fit
-  the 14 deg aperture); lengths 4-40 cm; widths 0.3-1 x the length;
+  the 14 deg aperture); lengths 5-40 cm; widths 0.4-1 x the length and at least 3 cm;
 - yaw 0-90 deg to the beams; each target keeps to its own sector of the fan (with 0.5 deg
   between), as two targets side by side at one range would cast one merged shadow;
 - materials of the world's table, or (``low_contrast_prob``) a material only 1-4 dB
@@ -48,6 +48,9 @@ FRAME_OUTPUTS = ("uint8", "uint16_amplitude", "float32_power")
 TARGET_MATERIALS = ("concrete", "rock", "brick", "wood", "plastic", "rubber", "metal", "glass", "gravel")
 #: Redraws of a target that would overlap another's sector of the fan.
 MAX_TRIES = 50
+#: Narrowest target, m (a narrower one is under two beams wide at a few metres: its shadow
+#: is filled by the neighbouring beams' seabed and never goes dark).
+MIN_WIDTH_M = 0.03
 #: Gap kept between targets' sectors of the fan, rad.
 SECTOR_MARGIN_RAD = math.radians(0.5)
 #: The paper's Table I targets (length, width, height), m, and their place in ``paper-tank``.
@@ -146,6 +149,7 @@ def draw_scene(
     n = int(rng.integers(n_targets[0], n_targets[1] + 1))
     slots = rng.permutation(np.linspace(-9.0, 9.0, 4))[:n]
     names, extra = _materials(rng, n, low_contrast_prob, seabed_material)
+    k_spec = 0
     depth = altitudes[1] + 1.0
     depression_deg = float(rng.uniform(19.0, 36.0))
     specs: list[TargetSpec] = []
@@ -154,19 +158,22 @@ def draw_scene(
         for _ in range(MAX_TRIES):
             height = float(rng.uniform(0.02, min(0.30, 0.35 * altitude)))
             ground = altitude / math.tan(math.radians(depression_deg + float(rng.uniform(-4.0, 4.0))))
-            length = float(rng.uniform(0.04, 0.40))
-            length = min(length, 0.1 * ground + 0.04)
-            width = length * float(rng.uniform(0.3, 1.0))
+            length = float(rng.uniform(0.05, 0.40))
+            length = min(length, 0.1 * ground + 0.05)
+            width = max(length * float(rng.uniform(0.4, 1.0)), MIN_WIDTH_M)
             az = math.radians(float(az_deg) + float(rng.uniform(-2.0, 2.0)))
             # Targets keep to their own sectors of the fan (their shadows would merge).
             half = 0.5 * math.hypot(length, width) / ground + SECTOR_MARGIN_RAD
             if all(az + half < lo or az - half > hi for lo, hi in sectors):
                 break
+        else:
+            continue  # no room left in the fan: fewer targets
         sectors.append((az - half, az + half))
         shape = str(rng.choice(list(shapes)))
-        specs.append(TargetSpec(f"T{k}", shape, ground * math.cos(az), ground * math.sin(az), length, width,
+        specs.append(TargetSpec(f"T{k_spec}", shape, ground * math.cos(az), ground * math.sin(az), length, width,
                                 height, yaw_rad=math.radians(float(rng.uniform(0.0, 90.0))), material=names[k],
                                 seed=int(rng.integers(0, 1000))))
+        k_spec += 1
     world = World(seabed=Seabed(depth_m=depth, material=seabed_material), targets=tuple(specs),
                   materials={**MATERIALS, **extra})
     frames = []

@@ -8,7 +8,8 @@ are found from the shadows:
 1. the beams of each shadow region are split into *runs* of neighbouring beams along which
    the shadow's first and last rows change smoothly (:mod:`perception.shadows.pairing.runs`):
    neighbouring targets whose shadows merged into one region fall apart at the jump (unless
-   one highlight precedes the runs on both sides: then the jump is one target's shape);
+   one highlight precedes the runs on both sides and its near edge runs on smoothly across
+   the jump: then the jump is one target's shape);
 2. in each beam of a run, the highlight that ends nearest before the shadow starts (at
    most ``max_gap_m`` before: the gap holds the target's dim top, or the seabed in front
    of a tall target at the same slant range as its top; not after it) precedes the
@@ -167,6 +168,30 @@ def _blocks(labels: list[int], min_beams: int) -> list[tuple[int, int, int]]:
     return [(a, b, v) for a, b, v in blocks]
 
 
+#: A highlight's near edge stepping by this much more than its neighbouring steps (m of range)
+#: between two beams starts another target's echo.
+NEAR_EDGE_JUMP_M = 0.015
+
+
+def _smooth_near_edge(segmentation: Segmentation, label: int, col_a: int, col_b: int) -> bool:
+    """Whether highlight ``label``'s first row runs on smoothly from beam ``col_a`` to
+    ``col_b``: its step there exceeds the median of the neighbouring steps (the slope of a
+    face oblique to the beams) by at most :data:`NEAR_EDGE_JUMP_M` (False where absent)."""
+    first = segmentation.highlight_rows[0][label]
+    last = segmentation.highlight_rows[1][label]
+    if last[col_a] < 0 or last[col_b] < 0:
+        return False
+    step = int(first[col_b]) - int(first[col_a])
+    around = []
+    for c0 in range(col_a - 3, col_b + 3):
+        c1 = c0 + (col_b - col_a)
+        if c0 == col_a or c0 < 0 or c1 >= first.size or last[c0] < 0 or last[c1] < 0:
+            continue
+        around.append(int(first[c1]) - int(first[c0]))
+    trend = float(np.median(around)) if around else 0.0
+    return abs(step - trend) * segmentation.sample_m <= NEAR_EDGE_JUMP_M
+
+
 def _overlap(segmentation: Segmentation, label: int, n_common: int) -> float:
     """Algorithm 1's ``|T ∩ S| / |T|`` over beams for highlight ``label``."""
     n_t = int(np.count_nonzero(segmentation.highlight_rows[1][label] >= 0))
@@ -212,9 +237,11 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
         for p0, p1 in runs:
             labels = _beam_highlights(segmentation, cols[p0:p1], first[p0:p1], max_rise)
             for a, b, v in _blocks(labels, cfg.min_run_beams):
-                if blocks and blocks[-1][2] == v >= 0 and blocks[-1][1] == p0 + a:
-                    # A jump of the shadow behind one highlight is the target's own shape
-                    # (a corner, a rounded side), not a second target.
+                if (blocks and blocks[-1][2] == v >= 0 and blocks[-1][1] == p0 + a
+                        and _smooth_near_edge(segmentation, v, cols[p0 + a - 1], cols[p0 + a])):
+                    # A jump of the shadow behind one highlight whose near edge runs on
+                    # smoothly is the target's own shape (a corner, a rounded side), not a
+                    # second target (whose echo would start at another range).
                     blocks[-1] = (blocks[-1][0], p0 + b, v)
                 else:
                     blocks.append((p0 + a, p0 + b, v))

@@ -41,6 +41,10 @@ class SegmentationConfig:
         ``shadow_core_sigmas`` spreads below -- covers at least ``min_shadow_core_m`` of
         range summed over its beams (a cast shadow holds the noise floor, far below the
         seabed; a dark patch of speckle or seabed texture hardly reaches the core level).
+    shadow_weak_sigmas : float
+        Along each beam a shadow runs on through pixels this many spreads below the seabed
+        (hysteresis), so that a side-lobe streak of a bright target crossing it does not
+        cut it in two.
     highlight_sigmas, highlight_core_sigmas, min_highlight_core_m : float
         The same for highlights (target echoes above the seabed).
     band_sigmas : float
@@ -66,6 +70,7 @@ class SegmentationConfig:
     background_block_m: float = 0.02
     shadow_sigmas: float = 3.0
     shadow_core_sigmas: float = 5.0
+    shadow_weak_sigmas: float = 1.0
     min_shadow_core_m: float = 0.06
     highlight_sigmas: float = 3.0
     highlight_core_sigmas: float = 5.0
@@ -91,6 +96,8 @@ class SegmentationConfig:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
+        if not 0 <= self.shadow_weak_sigmas <= self.shadow_sigmas:
+            raise ValueError(f"shadow_weak_sigmas must be in [0, shadow_sigmas], got {self.shadow_weak_sigmas}")
         if not self.shadow_core_sigmas >= self.shadow_sigmas:
             raise ValueError(f"shadow_core_sigmas must be >= shadow_sigmas ({self.shadow_sigmas}), "
                              f"got {self.shadow_core_sigmas}")

@@ -186,6 +186,12 @@ def segment(
     # The grid cell at each beam's band edge straddles the edge (half dark): not shadow.
     inner = edges + np.array([[1], [-1]])
     shadow_in_edges(grid, shadow_limit, inner, out=both[:, :n_cols].view(bool))
+    # Along each beam a shadow runs on through pixels only weakly darker than the seabed
+    # (hysteresis): a bright target's side-lobe streak across another's shadow, at the
+    # ranges of its echo, would cut the shadow in two.
+    weak = np.zeros((n_grid, n_cols), dtype=bool)
+    shadow_in_edges(grid, background - np.float32(cfg.shadow_weak_sigmas) * spread, inner, out=weak)
+    both[:, :n_cols] = hysteresis_along_beams(both[:, :n_cols].view(bool), weak).view(np.uint8)
     in_band = band[:, None]
     np.greater(grid, highlight_limit[:, None], out=both[:, n_cols + 1 :].view(bool))
     both[:, n_cols + 1 :] &= in_band
@@ -257,6 +263,21 @@ def _classical(levels: Levels, db_per_level: float, sample_m: float, cfg: Segmen
         band_stop_rows=np.full(n_cols, n_rows - 1, dtype=np.intp),
         method=cfg.method,
     )
+
+
+def hysteresis_along_beams(strong: NDArray[np.bool_], weak: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Per beam (column), every run of ``weak`` rows that holds a ``strong`` row (``strong``
+    must lie inside ``weak``... it is added to it), shape of the masks."""
+    mask = weak | strong
+    n_rows, n_cols = mask.shape
+    starts = mask.copy()
+    starts[1:] &= ~mask[:-1]
+    run_id = np.cumsum(starts, axis=0) * mask  # 1.. per run within a column, 0 outside
+    key = run_id + (np.arange(n_cols) * (n_rows + 1))[None, :]
+    has = np.zeros(n_cols * (n_rows + 1), dtype=bool)
+    has[key[strong]] = True
+    has[np.arange(n_cols) * (n_rows + 1)] = False  # id 0: outside any run
+    return has[key]
 
 
 def _core_pixels(

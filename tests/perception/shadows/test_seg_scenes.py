@@ -64,7 +64,7 @@ def test_neighbours_merged_in_range_and_azimuth_are_both_measured() -> None:
     )
     frame, truth = _render(targets, altitude_m=0.615, tilt_altitude_m=0.669, seabed_depth_m=1.723,
                            window_m=(1.045, 3.479), seed=53)
-    seg = segment(frame.image)
+    seg = segment(frame.image, range_m=frame.range_m)
     cols = [int(np.argmin(abs(frame.beam_azimuth_rad - t.azimuth_rad))) for t in truth.targets]
     labels = {int(seg.grid_shadow_labels[:, c].max()) for c in cols}
     assert len(labels) == 1 and 0 not in labels  # one shadow region holds both targets
