@@ -1,4 +1,4 @@
-"""Where a shadow starts: at the target's far top edge, at its near foot, or at its near edge.
+"""Where a shadow starts: at the target's far top edge, or at its near foot.
 
 Eq. 2 rests on the shadow starting at the target's far top edge, slant range
 ``r_top = sqrt(g_far^2 + (H - h)^2)`` (``g`` ground distances from below the sonar). But the
@@ -17,12 +17,8 @@ known in the frames), the ends alone give ``(g_far, h)`` by linear least squares
 
 (:func:`end_triangulation`). It needs the absolute altitudes (an altitude error shifts
 ``g_end`` by ``H / g_end`` of it) and is noisier than Eq. 2 (it rests on the ends' change
-with altitude, not on each frame's shadow ratio), so it replaces Eq. 2 only where the two
-disagree beyond their noise and the far top edge the ends imply tells what the shadow's
-start was instead (:func:`check_start`): before it in every frame -- the near foot -- or
-after it in every frame -- a target whose top is as dark as its shadow (a smooth top seen
-at grazing incidence), so that the "shadow" seemed to start at the target's near edge and
-Eq. 2 read it high -- and always between the target's near edge and the shadow's end.
+with altitude, not on each frame's shadow ratio), so it replaces Eq. 2 only where the
+shadow is seen to start at the near foot (:func:`check_start`).
 Units: metres.
 """
 
@@ -35,7 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 
 #: Sigmas by which Eq. 2's heights must fall short of the ends' height for a near foot.
-SHORT_SIGMAS = 3.0
+SHORT_SIGMAS = 2.0
+#: The foot's ground place may move this much between frames beyond its noise, m (it is
+#: a mean over the beams, of a face that may run oblique to them).
+FOOT_SLACK_M = 0.01
 #: Slack, in sigmas of the ranges, in the near foot's geometric tests.
 SLACK_SIGMAS = 3.0
 
@@ -130,19 +129,15 @@ def end_triangulation(frames: Sequence[EndFrame]) -> EndFit | None:
 
 @dataclass(frozen=True)
 class StartCheck:
-    """Whether the shadow's start is the far top edge, from the ends over altitudes.
+    """Whether the shadow starts at the near foot, from the ends over altitudes.
 
     Attributes
     ----------
     use_ends : bool
-        True when Eq. 2's height disagrees with the ends' beyond both their sigmas (and
-        ``DISAGREE_FRACTION`` of the height) while the far top edge the ends imply lies
-        between the target's near edge and the shadow's end in every frame: then the
-        shadow's start was not the far top edge.
+        True when the shadow starts at the near foot (:func:`check_start`): the height
+        is then the ends' triangulation's.
     label : str
-        ``"far top edge"``, ``"near foot"`` (the implied far top edge lies before the
-        shadow's start: layover) or ``"dim top"`` (it lies after it: the target's top
-        is as dark as its shadow, so the shadow seemed to start at the target's near edge).
+        ``"near foot"`` or ``"far top edge"``.
     fit : EndFit
     """
 
@@ -151,26 +146,20 @@ class StartCheck:
     fit: EndFit
 
 
-#: Eq. 2 and the ends must differ by this fraction of the height, besides their sigmas.
-DISAGREE_FRACTION = 0.05
-#: ... and by this many sigmas.
-DISAGREE_SIGMAS = 3.0
+def check_start(frames: Sequence[EndFrame], eq2_heights: Sequence[tuple[float, float]]) -> StartCheck | None:
+    """Whether the shadow starts at the near foot in every frame (module docstring).
 
-
-def check_start(
-    frames: Sequence[EndFrame], eq2_height: tuple[float, float], near_m: Sequence[float]
-) -> StartCheck | None:
-    """Eq. 2's height against the ends' triangulation (module docstring).
+    The three signs: the ground under the shadow's start stays put from frame to frame
+    (a foot; a far top edge's apparent ground place moves by ``h dH / g``); the far top
+    edge the ends imply lies nearer than the shadow's start in every frame (hidden in the
+    layover); and every frame's Eq. 2 height falls short of the ends' by more than the noise.
 
     Parameters
     ----------
     frames : sequence of EndFrame
         The target's frames (two or more altitudes).
-    eq2_height : (float, float)
-        Eq. 2's height over those frames and its 1-sigma, m.
-    near_m : sequence of float
-        Each frame's slant range where the target's echo starts, m (NaN: unknown; the
-        shadow's start is the bound then).
+    eq2_heights : sequence of (float, float)
+        Each frame's Eq. 2 height and its 1-sigma, m.
 
     Returns
     -------
@@ -180,18 +169,19 @@ def check_start(
     fit = end_triangulation(frames)
     if fit is None or not (math.isfinite(fit.height_m) and fit.height_m > 0):
         return None
-    h, h_std = eq2_height
-    before = after = 0
-    inside = True
-    for f, near in zip(frames, near_m, strict=True):
+    plain = StartCheck(False, "far top edge", fit)
+    feet = []
+    for f in frames:
         r_top = math.hypot(fit.g_far_m - f.offset_m, f.altitude_m - fit.height_m)
-        slack = SLACK_SIGMAS * math.hypot(f.sigma_r_m, fit.g_far_std_m)
-        lower = near if math.isfinite(near) else f.r_start_m
-        inside &= lower - slack <= r_top <= f.r_end_m + slack
-        before += r_top < f.r_start_m
-        after += r_top > f.r_start_m
-    label = "near foot" if before == len(frames) else ("dim top" if after == len(frames) else "far top edge")
-    gap = abs(h - fit.height_m)
-    disagree = gap > max(DISAGREE_SIGMAS * math.hypot(h_std, fit.height_std_m), DISAGREE_FRACTION * fit.height_m)
-    use = bool(disagree and inside and label != "far top edge")
-    return StartCheck(use, label if use else "far top edge", fit)
+        if r_top > f.r_start_m + SLACK_SIGMAS * math.hypot(f.sigma_r_m, fit.g_far_std_m):
+            return plain
+        g_foot, var = _ground(f, f.r_start_m)
+        if not math.isfinite(g_foot) or g_foot > fit.g_far_m:
+            return plain
+        feet.append((g_foot, var))
+    g = [v for v, _ in feet]
+    if max(g) - min(g) > SLACK_SIGMAS * math.sqrt(2.0 * max(var for _, var in feet)) + FOOT_SLACK_M:
+        return plain
+    if not all(h + SHORT_SIGMAS * math.hypot(s, fit.height_std_m) < fit.height_m for h, s in eq2_heights):
+        return plain
+    return StartCheck(True, "near foot", fit)

@@ -75,11 +75,10 @@ class TargetHeight:
         (``HeightsConfig.rounded_targets``); NaN when not measured.
     shadow_start : str
         What the shadow's start was taken for: ``"far top edge"`` (the usual case:
-        Eq. 2's geometry), ``"near foot"`` (a tall, short target whose far top edge lies
+        Eq. 2's geometry) or ``"near foot"`` (a tall, short target whose far top edge lies
         nearer in slant range than the seabed at its near foot: the shadow starts at the
-        foot) or ``"dim top"`` (a top as dark as the shadow: it seemed to start at the
-        target's near edge); in the last two the height comes from the shadow's ends over
-        the altitudes (:mod:`perception.heights.near_foot`).
+        foot, and the height comes from the shadow's ends over the altitudes,
+        :mod:`perception.heights.near_foot`).
     frame_reasons : tuple of (int, str)
         Per frame that did not give a usable shadow of this target: the frame index and
         why (not detected there, or which edge cut the shadow).

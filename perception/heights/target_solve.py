@@ -126,7 +126,7 @@ class TargetSolver:
                 if altitudes is not None and not rounded and cfg.check_start_with_ends:
                     known = all(math.isfinite(d.altitude_m) for d in usable)
                     h_std = (cfg.altitude_std_m or 0.0) if known else (shared[1] if shared is not None else 0.0)
-                    check = self._check_start(usable, altitudes, h_std, (height, std))
+                    check = self._check_start(usable, altitudes, h_std)
                     if check is not None and check.use_ends:
                         height, std, start_label = check.fit.height_m, check.fit.height_std_m, check.label
         m = first.measurement
@@ -176,16 +176,15 @@ class TargetSolver:
         return out
 
     def _check_start(
-        self, usable: list[Detection], altitudes: NDArray[np.float64], altitude_std_m: float,
-        eq2_height: tuple[float, float],
+        self, usable: list[Detection], altitudes: NDArray[np.float64], altitude_std_m: float
     ) -> StartCheck | None:
-        """Eq. 2's height against the shadow's ends over the altitudes (:func:`check_start`);
-        None with one altitude or when the ends give no height."""
+        """Whether the shadow starts at the near foot (:func:`check_start`); None with one
+        altitude or when the ends give no height."""
         if len(altitude_groups(altitudes)) < 2:
             return None
         cfg = self.config
         ref = usable[0]
-        frames, near = [], []
+        frames, eq2 = [], []
         for d, alt in zip(usable, altitudes.tolist(), strict=True):
             m = d.measurement
             sample = self._sample_m.get(d.frame_index, math.nan)
@@ -197,8 +196,9 @@ class TargetSolver:
             if all(math.isfinite(v) for v in (*moved, bearing)):
                 offset = -(moved[0] * math.cos(bearing) + moved[1] * math.sin(bearing))
             frames.append(EndFrame(m.r_top_m, m.r_end_m, sigma_r, alt, altitude_std_m, offset))
-            near.append(m.r_near_m)
-        return check_start(frames, eq2_height, near)
+            t, e = m.r_top_m, m.r_end_m
+            eq2.append((alt * (e - t) / e, alt * sigma_r * math.sqrt(t * t + e * e) / (e * e)))
+        return check_start(frames, eq2)
 
     @staticmethod
     def _altitudes(

@@ -11,7 +11,8 @@ speckle looks              1, 2, 4, 8 (1: fully developed, Rayleigh amplitude)
 K texture shape nu         inf (none) or 1-20, log-uniform (small: heavy tails)
 noise floor                none, or 0-25 dB display power
 TVG                        off, 20, 30 or 40 log R, with or without the absorption
-gain                       -12 .. +12 dB about the historical 127 dB (saturates targets)
+gain                       -6 .. +12 dB about the historical 127 dB (saturates targets; lower
+                           gains sink a long window's far seabed into the noise floor)
 pulse                      4-16 us (range blur 3-12 mm FWHM)
 azimuth pattern            the historical kernel, or sinc^2 of width 0.8-1.6 beams with
                            peak side lobes -13 .. -40 dB
@@ -108,7 +109,7 @@ def draw_member(rng: np.random.Generator) -> FamilyMember:
     changes: dict[str, Any] = {
         "speckle_looks": float(rng.choice([1.0, 1.0, 2.0, 4.0, 8.0])),
         "noise_floor_db": None if rng.random() < 0.15 else float(rng.uniform(0.0, 25.0)),
-        "gain_db": BASE_GAIN_DB + float(rng.uniform(-12.0, 12.0)),
+        "gain_db": BASE_GAIN_DB + float(rng.uniform(-6.0, 12.0)),
         "pulse_length_s": float(rng.uniform(4e-6, 16e-6)),
         "elevation_edge_db": float(rng.uniform(-6.0, -1.0)),
     }

@@ -94,6 +94,9 @@ BAND_EDGE_TOLERANCE_M = 0.015
 #: Rows hold seabed this fraction of the way or more from the noise floor to the seabed's
 #: brightest rows (95th percentile of the row levels).
 BAND_FRACTION = 0.2
+#: Below this many spreads between the darkest rows and the brightest, the window holds no
+#: noise floor: the seabed fills it.
+BAND_CONTRAST_SIGMAS = 6.0
 #: A row's own spread replaces the frame's where it is this many times wider.
 WIDE_SPREAD = 1.5
 #: Percentile of the row levels taken as the noise floor.
@@ -160,12 +163,19 @@ def segment(
     sigma0 = max(level_spread(grid, background, upper), MIN_SIGMA_DB / db_per_level)
     lit_level = noise + cfg.band_sigmas * sigma0
     band = longest_run(background >= lit_level)
+    if not band.any() or float(np.percentile(background, 95)) - noise < BAND_CONTRAST_SIGMAS * sigma0:
+        band = np.ones_like(band)
     sigma = max(level_spread(grid, background, band), MIN_SIGMA_DB / db_per_level) if band.any() else sigma0
     # A row holds seabed where its level stands clear of the noise floor: by band_sigmas
     # spreads, and by a fifth of the way from the floor to the seabed's brightest rows
     # (noise of one look spreads wider than a many-look seabed's speckle).
     top = float(np.percentile(background, 95))
-    lit_level = noise + max(cfg.band_sigmas * sigma, BAND_FRACTION * (top - noise))
+    if top - noise < BAND_CONTRAST_SIGMAS * sigma:
+        # No row stands clear of the darkest: the seabed fills the whole window (its
+        # dimmest rows are no noise floor).
+        lit_level = float(background.min())
+    else:
+        lit_level = noise + max(cfg.band_sigmas * sigma, BAND_FRACTION * (top - noise))
     band = longest_run(background >= lit_level)
     # Thresholds per row: the frame's spread, or the row's own where it is clearly wider
     # (one-look noise where the seabed has many looks; a target's shadow and highlight in a
