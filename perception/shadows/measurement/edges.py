@@ -27,7 +27,6 @@ Rows are image rows (fractional); conversion to slant range is the caller's.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -43,8 +42,6 @@ FloatArray = NDArray[np.float64]
 
 #: Largest fitted half window, samples.
 MAX_FIT_HALF_SAMPLES = 48
-#: Starting blur of the step fit, samples.
-BLUR0_SAMPLES = 1.5
 
 
 def central_beams(columns: tuple[int, ...], fraction: float) -> list[int]:
@@ -57,137 +54,141 @@ def central_beams(columns: tuple[int, ...], fraction: float) -> list[int]:
 
 
 @dataclass(frozen=True)
-class PairEdges:
-    """The edges of one pair.
+class FrameEdges:
+    """The edges of every pair of a frame: per central beam (the pairs' beams one after the
+    other, pair by pair) and per pair.
 
     Attributes
     ----------
-    columns : tuple of int
-        The central beams with both edges (not cut).
-    top_rows, end_rows : ndarray, shape (len(columns),)
-        Fractional rows of the shadow's start and end in those beams.
-    near_rows : ndarray, shape (len(columns),)
-        Fractional row of the target's near edge (the highlight's start) in those beams,
-        NaN where the beam has no highlight.
-    top_std_rows, end_std_rows, near_std_rows : float
-        1-sigma of the pair's mean edges, rows (NaN when not measured).
-    blur_rows : float
-        Fitted blur of the shadow's start, rows.
-    n_central : int
-        Central beams looked at.
-    cut_near, cut_far : int
-        Central beams without echo before the shadow, without seabed after it.
-    echo_db, depth_db, seabed_db : float
-        Levels about the shadow (dB, relative): echo before its start over the shadow,
-        seabed after its end over the shadow, and the seabed after it over the echo before.
+    beams, owner : ndarray, shape (n,), int
+        Image column of each central beam, and the index of its pair.
+    good : ndarray, shape (n,), bool
+        Beams with both edges of the shadow measured (not cut).
+    top_rows, end_rows : ndarray, shape (n,)
+        Fractional rows of the shadow's start and end (NaN where not ``good``).
+    near_rows : ndarray, shape (n,)
+        Row of the target's near edge (the highlight's start; its rough edge, to half a
+        row: it places the target, no height depends on it), NaN where the beam has no
+        highlight or it was not measured.
+    top_std_rows, end_std_rows : ndarray, shape (n_pairs,)
+        1-sigma of each pair's mean shadow edges, rows (NaN when not measured).
+    blur_rows : ndarray, shape (n_pairs,)
+        Fitted blur of each shadow's start, rows.
+    n_central, n_good, cut_near, cut_far : ndarray, shape (n_pairs,), int
+        Central beams looked at, beams ``good``, central beams without echo before the
+        shadow, without seabed after it.
+    echo_db, depth_db : ndarray, shape (n_pairs,)
+        Mean over the good beams of the echo before the shadow's start over the shadow,
+        and of the seabed after its end over the shadow, dB (NaN without a good beam).
     """
 
-    columns: tuple[int, ...]
+    beams: NDArray[np.intp]
+    owner: NDArray[np.intp]
+    good: NDArray[np.bool_]
     top_rows: FloatArray
     end_rows: FloatArray
     near_rows: FloatArray
-    top_std_rows: float
-    end_std_rows: float
-    near_std_rows: float
-    blur_rows: float
-    n_central: int
-    cut_near: int
-    cut_far: int
-    echo_db: float
-    depth_db: float
-    seabed_db: float
+    top_std_rows: FloatArray
+    end_std_rows: FloatArray
+    blur_rows: FloatArray
+    n_central: NDArray[np.intp]
+    n_good: NDArray[np.intp]
+    cut_near: NDArray[np.intp]
+    cut_far: NDArray[np.intp]
+    echo_db: FloatArray
+    depth_db: FloatArray
 
 
 def _window_means(cum: FloatArray, start: NDArray[np.intp], stop: NDArray[np.intp]) -> FloatArray:
     """Mean of each column of the values behind ``cum`` (cumulative sums with a zero row
-    first, shape (M + 1, n)) over its rows ``start .. stop - 1`` (clamped; NaN when empty)."""
+    first, shape (M + 1, n)) over its rows ``start .. stop - 1`` (clamped; NaN when empty);
+    ``start`` and ``stop`` of shape (k, n) for k windows per column at once."""
     m = cum.shape[0] - 1
     a = np.clip(start, 0, m)
     b = np.clip(stop, 0, m)
-    cols = np.arange(cum.shape[1])
+    cols = np.arange(cum.shape[1])[None, :]
     total = cum[b, cols] - cum[a, cols]
     count = b - a
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
-def _running_means(cum: FloatArray, length: int) -> FloatArray:
-    """Means of ``length`` consecutive rows starting at each row (fewer at the end), shape (M, n)."""
+def _smoothed_at(cum: FloatArray, rows: NDArray[np.intp], h: int) -> FloatArray:
+    """Mean of the ``2 h + 1`` rows centred on each of ``rows`` (fewer at the ends) of the
+    values behind ``cum``; ``rows`` of shape (w, n), one column per column of ``cum``."""
     m = cum.shape[0] - 1
-    start = np.arange(m)
-    stop = np.minimum(start + length, m)
-    return (cum[stop] - cum[start]) / (stop - start)[:, None]
+    cols = np.arange(cum.shape[1])[None, :]
+    a = np.clip(rows - h, 0, m)
+    b = np.clip(rows + h + 1, 0, m)
+    return (cum[b, cols] - cum[a, cols]) / np.maximum(b - a, 1)
 
 
-def _last_at_least(q: FloatArray, level: FloatArray, start: NDArray[np.intp], stop: NDArray[np.intp]) -> FloatArray:
-    """Per column, the last row in ``start .. stop - 1`` where ``q >= level`` (NaN: none)."""
-    rows = np.arange(q.shape[0])[:, None]
-    hit = (q >= level[None, :]) & (rows >= start[None, :]) & (rows < stop[None, :])
+def _crossing(cum: FloatArray, h: int, level: FloatArray, start: NDArray[np.intp], stop: NDArray[np.intp],
+              *, last: bool) -> FloatArray:
+    """Per column, the first (or ``last``) row in ``start .. stop - 1`` whose smoothed value
+    (:func:`_smoothed_at`) is at least ``level`` (NaN: none)."""
+    width = max(1, int(np.max(stop - start)) if start.size else 1)
+    rows = start[None, :] + np.arange(width)[:, None]
+    inside = (rows < stop[None, :]) & (rows >= 0) & (rows < cum.shape[0] - 1)
+    hit = (_smoothed_at(cum, rows, h) >= level[None, :]) & inside
     found = hit.any(axis=0)
-    last = q.shape[0] - 1 - hit[::-1].argmax(axis=0)
-    return np.where(found, last, np.nan)
+    if last:
+        at = width - 1 - hit[::-1].argmax(axis=0)
+    else:
+        at = hit.argmax(axis=0)
+    return np.where(found, start + at, np.nan)
 
 
-def _first_at_least(q: FloatArray, level: FloatArray, start: NDArray[np.intp], stop: NDArray[np.intp]) -> FloatArray:
-    """Per column, the first row in ``start .. stop - 1`` where ``q >= level`` (NaN: none)."""
-    rows = np.arange(q.shape[0])[:, None]
-    hit = (q >= level[None, :]) & (rows >= start[None, :]) & (rows < stop[None, :])
-    found = hit.any(axis=0)
-    return np.where(found, hit.argmax(axis=0), np.nan)
-
-
-def _aligned_fit(
+def _aligned_fits(
     power: FloatArray,
-    anchor: FloatArray,
+    kinds: Sequence[tuple[FloatArray, NDArray[np.bool_], NDArray[np.intp], NDArray[np.intp], float]],
     owner: NDArray[np.intp],
-    use: NDArray[np.bool_],
-    lower: NDArray[np.intp],
-    upper: NDArray[np.intp],
     n_pairs: int,
     half: int,
-    sign: float,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Average each pair's beam profiles about their rough edges and fit one step per pair.
+    """Average each pair's beam profiles about their rough edges and fit one step per pair
+    and kind of edge, all in one fit.
 
-    ``power`` (M, n) profiles; ``anchor`` (n,) rough edges (rows of ``power``, NaN where
-    absent); ``use`` beams taking part; ``lower``/``upper`` each beam's usable rows
-    [lower, upper). Returns per pair the offset of the fitted edge from the beams'
+    ``power`` (M, n) profiles; per kind: ``anchor`` (n,) rough edges (rows of ``power``,
+    NaN where absent), ``use`` beams taking part, ``lower``/``upper`` each beam's usable
+    rows [lower, upper), and the step's sign (+1 a fall, -1 a rise). Returns arrays of
+    shape (n_kinds, n_pairs): the offset of the fitted edge from the beams'
     ``floor(anchor)`` (rows; NaN when no fit), its 1-sigma and the fitted blur.
     """
-    nan = np.full(n_pairs, np.nan)
-    ok = use & np.isfinite(anchor)
+    n_kinds = len(kinds)
+    m_rows, n = power.shape
+    anchor = np.concatenate([k[0] for k in kinds])
+    ok = np.concatenate([k[1] for k in kinds]) & np.isfinite(anchor)
+    lower = np.maximum(np.concatenate([k[2] for k in kinds]), 0)
+    upper = np.minimum(np.concatenate([k[3] for k in kinds]), m_rows)
+    group = (np.arange(n_kinds)[:, None] * n_pairs + owner[None, :]).ravel()
+    n_groups = n_kinds * n_pairs
+    out = np.full((3, n_groups), np.nan)
     if not np.any(ok):
-        return nan, nan.copy(), nan.copy()
-    m_rows = power.shape[0]
+        return out[0].reshape(n_kinds, n_pairs), out[1].reshape(n_kinds, n_pairs), out[2].reshape(n_kinds, n_pairs)
     base = np.floor(np.where(ok, anchor, 0.0)).astype(np.intp)
-    offsets = np.arange(-half, half + 1)
-    rows = base[None, :] + offsets[:, None]  # (2 half + 1, n)
-    valid = ok[None, :] & (rows >= np.maximum(lower, 0)[None, :]) & (rows < np.minimum(upper, m_rows)[None, :])
-    values = power[np.clip(rows, 0, m_rows - 1), np.arange(power.shape[1])[None, :]]
-    values = np.where(valid, values, 0.0)
-    sums = np.zeros((n_pairs, offsets.size))
-    counts = np.zeros((n_pairs, offsets.size))
-    np.add.at(sums, owner, values.T)
-    np.add.at(counts, owner, valid.T.astype(np.float64))
-    beams = np.bincount(owner[ok], minlength=n_pairs).astype(np.float64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.where(counts > 0, sums / np.maximum(counts, 1.0), 0.0)
+    rows = base[None, :] + np.arange(-half, half + 1)[:, None]  # (2 half + 1, n_kinds n)
+    valid = ok[None, :] & (rows >= lower[None, :]) & (rows < upper[None, :])
+    values = np.where(valid, power[np.clip(rows, 0, m_rows - 1), np.tile(np.arange(n), n_kinds)[None, :]], 0.0)
+    # Sums over each group's beams by one product with the groups' indicator matrix.
+    member = np.zeros((n_groups, group.size))
+    member[group, np.arange(group.size)] = ok
+    sums = member @ values.T
+    counts = member @ valid.T.astype(np.float64)
+    beams = member.sum(axis=1)
+    mean = sums / np.maximum(counts, 1.0)
     weights = (counts >= 0.5 * np.maximum(beams, 1.0)[:, None]) & (beams[:, None] > 0)
-    has = weights.sum(axis=1) >= 5
-    if not np.any(has):
-        return nan, nan.copy(), nan.copy()
-    # The rough edge lies between base and base + 1 (anchors at half rows): start there.
-    start = np.full(int(np.count_nonzero(has)), half + 0.5)
-    fit = fit_steps(mean[has], weights[has].astype(np.float64), edge0=start, blur0=BLUR0_SAMPLES, sign=sign)
-    offset, std, blur = nan.copy(), nan.copy(), nan.copy()
-    good = np.flatnonzero(has)[fit.ok]
-    offset[good] = fit.edge[fit.ok] - half  # window index ``half`` is each beam's floor(anchor)
-    std[good] = fit.edge_std[fit.ok] / np.sqrt(np.maximum(beams[good], 1.0))
-    blur[good] = fit.blur[fit.ok]
-    return offset, std, blur
+    has = np.flatnonzero(weights.sum(axis=1) >= 5)
+    if has.size:
+        signs = np.repeat(np.array([k[4] for k in kinds], dtype=np.float64), n_pairs)[has]
+        fit = fit_steps(mean[has], weights[has].astype(np.float64), edge0=half + 0.5, sign=signs)
+        good = has[fit.ok]
+        out[0, good] = fit.edge[fit.ok] - half  # window index ``half`` is each beam's floor(anchor)
+        out[1, good] = fit.edge_std[fit.ok] / np.sqrt(np.maximum(beams[good], 1.0))
+        out[2, good] = fit.blur[fit.ok]
+    return out[0].reshape(n_kinds, n_pairs), out[1].reshape(n_kinds, n_pairs), out[2].reshape(n_kinds, n_pairs)
 
 
-def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> list[PairEdges]:
+def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureConfig) -> FrameEdges:
     """The edges of every pair of a frame (module docstring), all pairs' beams together."""
     seg = segmentation
     n_pairs = len(pairs)
@@ -198,11 +199,11 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     level_n = max(3, int(round(cfg.level_m / dr)))
     half = int(min(MAX_FIT_HALF_SAMPLES, max(4, round(cfg.fit_half_window_m / dr))))
     centrals = [central_beams(p.columns, cfg.central_fraction) for p in pairs]
-    counts = [len(c) for c in centrals]
+    counts = np.array([len(c) for c in centrals], dtype=np.intp)
     beams = np.array([c for central in centrals for c in central], dtype=np.intp)
-    if beams.size == 0:
-        return [_empty(0) for _ in pairs]
     owner = np.repeat(np.arange(n_pairs), counts)
+    if beams.size == 0:
+        return _empty(counts)
     s_label = np.repeat(np.array([p.shadow.label for p in pairs]), counts)
     h_label = np.repeat(np.array([p.highlight.label if p.highlight is not None else -1 for p in pairs]), counts)
     s_first = seg.shadow_rows[0][s_label, beams]
@@ -218,19 +219,13 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     start_row = np.where(has_h, np.minimum(t_first, s_first), s_first) - reach - level_n
     lo = np.maximum(start_row, 0)
     hi = np.minimum(s_last + d + reach, n_rows)
-    length = int(np.max(hi - lo)) if hi.size else 0
-    rows = lo[None, :] + np.arange(max(length, 1))[:, None]
-    levels = seg.levels
-    taken = levels[np.minimum(rows, n_rows - 1), beams[None, :]]
-    power = seg.power_of(taken)
-    m_rows = power.shape[0]
-    cum = np.zeros((m_rows + 1, power.shape[1]))
+    length = max(int(np.max(hi - lo)), 1)
+    rows = np.minimum(lo[None, :] + np.arange(length)[:, None], n_rows - 1)
+    power = seg.power_of(seg.levels[rows, beams[None, :]])
+    m_rows = length
+    cum = np.zeros((m_rows + 1, beams.size))
     np.cumsum(power, axis=0, out=cum[1:])
-    # The profiles smoothed over k rows centred on each row (fewer at the ends).
     h = (k - 1) // 2
-    idx = np.arange(m_rows)
-    a_idx, b_idx = np.maximum(idx - h, 0), np.minimum(idx + h + 1, m_rows)
-    q = (cum[b_idx] - cum[a_idx]) / (b_idx - a_idx)[:, None]
     # In local rows (of ``power``). The region's rows can hold more than the cast shadow:
     # a target's dim top (seen at grazing incidence, or low-contrast), a few dB under the
     # seabed, passes the segmentation's test as well. The shadow proper is where the echo
@@ -238,13 +233,14 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     # over ``level_n`` rows of the region) and the row's seabed level.
     sf, sl = s_first - lo, s_last - lo
     half_level = max(2, level_n // 2)
-    run = _running_means(cum, half_level)  # run[i]: mean of rows i .. i + half_level - 1
+    # run[i]: mean of rows i .. i + half_level - 1 (fewer at the end)
+    stop = np.minimum(np.arange(m_rows) + half_level, m_rows)
+    run = (cum[stop] - cum[:-1]) / (stop - np.arange(m_rows))[:, None]
     local = np.arange(m_rows)[:, None]
-    in_region = (local >= sf[None, :] - d) & (local <= sl[None, :] + d - half_level + 1)
+    in_region = (local >= (sf - d)[None, :]) & (local <= (sl + d - half_level + 1)[None, :])
     floor = np.where(in_region, run, np.inf).min(axis=0)
-    seabed_row = seg.power_of(np.asarray(seg.background, dtype=np.float32))
-    b_lin = seabed_row[np.minimum(rows, n_rows - 1)]
-    deep = (run < np.sqrt(floor[None, :] * b_lin)) & in_region
+    b_lin = seg.power_of(np.asarray(seg.background, dtype=np.float32))[rows]
+    deep = (run * run < floor[None, :] * b_lin) & in_region
     found = deep.any(axis=0)
     deep_start = np.where(found, deep.argmax(axis=0), sf)
     deep_end = np.where(found, m_rows - 1 - deep[::-1].argmax(axis=0) + half_level - 1, sl)
@@ -254,10 +250,13 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     short = interior_b - interior_a < 2
     interior_a = np.where(short, mid_shadow, interior_a)
     interior_b = np.where(short, mid_shadow + 1, interior_b)
-    shadow_level = _window_means(cum, interior_a, interior_b)
-    echo_level = _window_means(cum, deep_start - d - level_n, deep_start - d)
     f_a = deep_end + d + 1
-    seabed_level = _window_means(cum, f_a, f_a + level_n)
+    tf, tl = t_first - lo, t_last - lo
+    # The levels: shadow, echo before it, seabed after it, seabed before the highlight, highlight.
+    means = _window_means(cum, np.stack([interior_a, deep_start - d - level_n, f_a, tf - d - level_n, tf + d]),
+                          np.stack([interior_b, deep_start - d, f_a + level_n, tf - d,
+                                    np.maximum(tl - d + 1, tf + d + 1)]))
+    shadow_level, echo_level, seabed_level, near_before, near_inside = means
     seabed_inside = (lo + f_a + level_n) <= n_rows
     with np.errstate(invalid="ignore", divide="ignore"):
         echo_db = 10.0 * np.log10(echo_level / shadow_level)
@@ -265,57 +264,51 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     cut_level_db = cfg.cut_contrast_sigmas * seg.sigma_db
     dark_before = ~(echo_db >= cut_level_db)
     dark_after = ~(depth_db >= cut_level_db) | ~seabed_inside
-    top_mid = np.sqrt(echo_level * shadow_level)
-    end_mid = np.sqrt(seabed_level * shadow_level)
     # Each rough edge lies between two rows: at the last bright row + 0.5, the first - 0.5.
-    rough_top = _last_at_least(q, top_mid, deep_start - d - level_n, interior_a) + 0.5
-    rough_end = _first_at_least(q, end_mid, interior_b, f_a + level_n) - 0.5
-    use_top = present & ~dark_before & ~dark_after
-    use_end = use_top
-    top_off, top_std, top_blur = _aligned_fit(power, rough_top, owner, use_top, deep_start - reach,
-                                              mid_shadow + 1, n_pairs, half, 1.0)
-    end_off, end_std, _ = _aligned_fit(power, rough_end, owner, use_end, mid_shadow, hi - lo, n_pairs, half, -1.0)
+    rough_top = _crossing(cum, h, 0.5 * (echo_level + shadow_level), deep_start - d - level_n, interior_a,
+                          last=True) + 0.5
+    rough_end = _crossing(cum, h, 0.5 * (seabed_level + shadow_level), interior_b, f_a + level_n,
+                          last=False) - 0.5
     # The target's near edge: the rise from the seabed before a highlight to the highlight.
-    tf, tl = t_first - lo, t_last - lo
-    near_before = _window_means(cum, tf - d - level_n, tf - d)
-    near_inside = _window_means(cum, tf + d, np.maximum(tl - d + 1, tf + d + 1))
-    rough_near = _first_at_least(q, np.sqrt(near_before * near_inside), tf - d - level_n, tf + d + 1) - 0.5
+    rough_near = _crossing(cum, h, 0.5 * (near_before + near_inside), tf - d - level_n, tf + d + 1,
+                           last=False) - 0.5
+    use_top = present & ~dark_before & ~dark_after
     use_near = use_top & has_h & (near_inside > near_before)
-    near_off, near_std, _ = _aligned_fit(power, rough_near, owner, use_near, tf - reach, (tf + tl) // 2 + 1,
-                                         n_pairs, half, -1.0)
-    out = []
-    start = 0
-    for n, count in enumerate(counts):
-        sel = slice(start, start + count)
-        start += count
-        good = use_top[sel] & np.isfinite(rough_top[sel]) & np.isfinite(rough_end[sel])
-        if not (np.isfinite(top_off[n]) and np.isfinite(end_off[n])):
-            good[:] = False
-        near = np.where(use_near[sel] & np.isfinite(rough_near[sel]) & np.isfinite(near_off[n]),
-                        np.floor(np.nan_to_num(rough_near[sel])) + near_off[n], np.nan)
-        lo_sel = lo[sel]
-        echo = np.nanmedian(echo_db[sel][good]) if np.any(good) else math.nan
-        depth = np.nanmedian(depth_db[sel][good]) if np.any(good) else math.nan
-        out.append(PairEdges(
-            columns=tuple(int(c) for c in beams[sel][good]),
-            top_rows=(np.floor(np.nan_to_num(rough_top[sel])) + top_off[n] + lo_sel)[good],
-            end_rows=(np.floor(np.nan_to_num(rough_end[sel])) + end_off[n] + lo_sel)[good],
-            near_rows=(near + lo_sel)[good],
-            top_std_rows=float(top_std[n]),
-            end_std_rows=float(end_std[n]),
-            near_std_rows=float(near_std[n]),
-            blur_rows=float(top_blur[n]),
-            n_central=count,
-            cut_near=int(np.count_nonzero(present[sel] & dark_before[sel])),
-            cut_far=int(np.count_nonzero(present[sel] & dark_after[sel])),
-            echo_db=float(echo),
-            depth_db=float(depth),
-            seabed_db=float(depth - echo) if math.isfinite(echo) and math.isfinite(depth) else math.nan,
-        ))
-    return out
+    offsets, stds, blurs = _aligned_fits(power, (
+        (rough_top, use_top, deep_start - reach, mid_shadow + 1, 1.0),
+        (rough_end, use_top, mid_shadow, hi - lo, -1.0),
+    ), owner, n_pairs, half)
+    top_off, end_off = offsets[0][owner], offsets[1][owner]
+    good = use_top & np.isfinite(rough_top) & np.isfinite(rough_end) & np.isfinite(top_off) & np.isfinite(end_off)
+    nan = np.full(beams.size, np.nan)
+    top_rows = np.where(good, np.floor(rough_top) + top_off + lo, nan)
+    end_rows = np.where(good, np.floor(rough_end) + end_off + lo, nan)
+    # The near edge places the target (to a sample is enough): its rough edge.
+    near_ok = good & use_near & np.isfinite(rough_near)
+    near_rows = np.where(near_ok, rough_near + lo, nan)
+    n_good = np.bincount(owner, weights=good, minlength=n_pairs)
+    finite_echo = good & np.isfinite(echo_db)
+    finite_depth = good & np.isfinite(depth_db)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        echo = (np.bincount(owner, weights=np.where(finite_echo, echo_db, 0.0), minlength=n_pairs)
+                / np.bincount(owner, weights=finite_echo, minlength=n_pairs))
+        depth = (np.bincount(owner, weights=np.where(finite_depth, depth_db, 0.0), minlength=n_pairs)
+                 / np.bincount(owner, weights=finite_depth, minlength=n_pairs))
+    return FrameEdges(
+        beams=beams, owner=owner, good=good, top_rows=top_rows, end_rows=end_rows, near_rows=near_rows,
+        top_std_rows=stds[0], end_std_rows=stds[1], blur_rows=blurs[0],
+        n_central=counts, n_good=n_good.astype(np.intp),
+        cut_near=np.bincount(owner, weights=present & dark_before, minlength=n_pairs).astype(np.intp),
+        cut_far=np.bincount(owner, weights=present & dark_after, minlength=n_pairs).astype(np.intp),
+        echo_db=echo, depth_db=depth,
+    )
 
 
-def _empty(n_central: int) -> PairEdges:
+def _empty(counts: NDArray[np.intp]) -> FrameEdges:
+    n = counts.size
     e = np.zeros(0)
-    return PairEdges((), e, e.copy(), e.copy(), math.nan, math.nan, math.nan, math.nan, n_central, 0, 0,
-                     math.nan, math.nan, math.nan)
+    nan = np.full(n, np.nan)
+    zero = np.zeros(n, dtype=np.intp)
+    return FrameEdges(np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp), np.zeros(0, dtype=bool), e, e.copy(),
+                      e.copy(), nan, nan.copy(), nan.copy(), counts, zero, zero.copy(), zero.copy(),
+                      nan.copy(), nan.copy())

@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from perception.shadows.measurement.config import MeasureConfig
-from perception.shadows.measurement.edges import PairEdges, find_edges
+from perception.shadows.measurement.edges import FrameEdges, find_edges
 from perception.shadows.pairing.pair import Pair
 from perception.shadows.segmentation.result import Segmentation
 
@@ -141,16 +141,17 @@ def measure_pair(
                          config=config)[0]
 
 
-def _cuts(pair: Pair, edges: PairEdges, n_rows: int) -> list[str]:
-    """Reasons (sentences) that cut this measurement, from the pair's flags and its beams."""
+def _cuts(pair: Pair, edges: FrameEdges, n: int, n_rows: int) -> list[str]:
+    """Reasons (sentences) that cut the measurement of pair ``n``, from its flags and its beams."""
     reasons = [TRUNCATION_REASONS[f] for f in pair.fov_flags if f in _CUTTING_FLAGS and f != "band_far"
                and f != "band_near"]
-    n = edges.n_central
-    if n and 2 * edges.cut_far > n:
+    central = int(edges.n_central[n])
+    cut_far, cut_near = int(edges.cut_far[n]), int(edges.cut_near[n])
+    if central and 2 * cut_far > central:
         where = "window_end" if pair.shadow.row_stop >= n_rows else "band_far"
-        reasons.append(f"{TRUNCATION_REASONS[where]}, in {edges.cut_far} of its {n} central beams")
-    if n and 2 * edges.cut_near > n:
-        reasons.append(f"{TRUNCATION_REASONS['band_near']}, in {edges.cut_near} of its {n} central beams")
+        reasons.append(f"{TRUNCATION_REASONS[where]}, in {cut_far} of its {central} central beams")
+    if central and 2 * cut_near > central:
+        reasons.append(f"{TRUNCATION_REASONS['band_near']}, in {cut_near} of its {central} central beams")
     return reasons
 
 
@@ -184,52 +185,68 @@ def measure_pairs(
     cfg = config or MeasureConfig()
     if not pairs:
         return []
-    all_edges = find_edges(segmentation, pairs, cfg)
+    edges = find_edges(segmentation, pairs, cfg)
     n_rows = segmentation.n_rows
+    n_pairs = len(pairs)
     rows_axis = np.arange(n_rows, dtype=np.float64)
     sample_m = float(range_m[-1] - range_m[0]) / max(range_m.size - 1, 1)
+    # Every beam's ranges at once; each pair's beams are a run of the good beams (in pair order).
+    good = np.flatnonzero(edges.good)
+    owner = edges.owner[good]
+    top = np.interp(edges.top_rows[good], rows_axis, range_m)
+    end = np.interp(edges.end_rows[good], rows_axis, range_m)
+    near_rows = edges.near_rows[good]
+    near_ok = np.isfinite(near_rows)
+    near = np.where(near_ok, np.interp(np.where(near_ok, near_rows, 0.0), rows_axis, range_m), np.nan)
+    azimuth = np.asarray(beam_azimuth_rad, dtype=np.float64)[edges.beams[good]]
+    n_good = np.bincount(owner, minlength=n_pairs)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean_top = np.bincount(owner, weights=top, minlength=n_pairs) / n_good
+        mean_end = np.bincount(owner, weights=end, minlength=n_pairs) / n_good
+        mean_azimuth = np.bincount(owner, weights=azimuth, minlength=n_pairs) / n_good
+        mean_near = (np.bincount(owner, weights=np.where(near_ok, near, 0.0), minlength=n_pairs)
+                     / np.bincount(owner, weights=near_ok, minlength=n_pairs))
+    std_rows = np.maximum(np.fmax(edges.top_std_rows, edges.end_std_rows), MIN_EDGE_STD_SAMPLES)
+    bounds = np.concatenate([[0], np.cumsum(n_good)]).tolist()
+    columns = edges.beams[good].tolist()
+    top_l, end_l, near_l, azimuth_l = top.tolist(), end.tolist(), near.tolist(), azimuth.tolist()
     out = []
-    for pair, edges in zip(pairs, all_edges, strict=True):
-        reasons = _cuts(pair, edges, n_rows)
+    for n, pair in enumerate(pairs):
+        reasons = _cuts(pair, edges, n, n_rows)
         highlight_m = (float(range_m[pair.highlight.row_start]) if pair.highlight is not None
                        else float(range_m[min(pair.shadow.row_start, n_rows - 1)]))
-        count = len(edges.columns)
-        if count < cfg.min_beams:
+        a, b = bounds[n], bounds[n + 1]
+        echo, depth = float(edges.echo_db[n]), float(edges.depth_db[n])
+        if b - a < cfg.min_beams:
             if not reasons:
-                reasons.append(f"no central beam of the shadow gave both its edges (of {edges.n_central})")
+                reasons.append(f"no central beam of the shadow gave both its edges (of {int(edges.n_central[n])})")
             out.append(ShadowMeasurement(
                 azimuth_rad=float(np.mean(beam_azimuth_rad[list(pair.columns)])), r_top_m=math.nan,
                 r_end_m=math.nan, sigma_r_m=math.nan, highlight_range_m=highlight_m, columns=(),
                 r_top_per_beam_m=(), r_end_per_beam_m=(), truncated=True, reason="; ".join(reasons),
                 overlap=pair.overlap, shadow_width_beams=pair.shadow.n_cols,
-                has_highlight=pair.highlight is not None, echo_db=edges.echo_db, depth_db=edges.depth_db,
+                has_highlight=pair.highlight is not None, echo_db=echo, depth_db=depth,
             ))
             continue
-        top = np.interp(edges.top_rows, rows_axis, range_m)
-        end = np.interp(edges.end_rows, rows_axis, range_m)
-        near_all = np.where(np.isfinite(edges.near_rows),
-                            np.interp(np.nan_to_num(edges.near_rows), rows_axis, range_m), np.nan)
-        near = near_all[np.isfinite(near_all)]
-        r_near = float(np.mean(near)) if near.size else math.nan
-        std_rows = max(edges.top_std_rows, edges.end_std_rows, MIN_EDGE_STD_SAMPLES)
+        r_near = float(mean_near[n])
         out.append(ShadowMeasurement(
-            azimuth_rad=float(np.mean(beam_azimuth_rad[list(edges.columns)])),
-            r_top_m=float(np.mean(top)),
-            r_end_m=float(np.mean(end)),
-            sigma_r_m=std_rows * sample_m,
+            azimuth_rad=float(mean_azimuth[n]),
+            r_top_m=float(mean_top[n]),
+            r_end_m=float(mean_end[n]),
+            sigma_r_m=float(std_rows[n]) * sample_m,
             highlight_range_m=r_near if math.isfinite(r_near) else highlight_m,
-            columns=edges.columns,
-            r_top_per_beam_m=tuple(float(v) for v in top),
-            r_end_per_beam_m=tuple(float(v) for v in end),
+            columns=tuple(columns[a:b]),
+            r_top_per_beam_m=tuple(top_l[a:b]),
+            r_end_per_beam_m=tuple(end_l[a:b]),
             truncated=bool(reasons),
             reason="; ".join(reasons) if reasons else None,
             overlap=pair.overlap,
             shadow_width_beams=pair.shadow.n_cols,
             r_near_m=r_near,
-            r_near_per_beam_m=tuple(float(v) for v in near_all),
-            azimuth_per_beam_rad=tuple(float(v) for v in beam_azimuth_rad[list(edges.columns)]),
+            r_near_per_beam_m=tuple(near_l[a:b]),
+            azimuth_per_beam_rad=tuple(azimuth_l[a:b]),
             has_highlight=pair.highlight is not None,
-            echo_db=edges.echo_db,
-            depth_db=edges.depth_db,
+            echo_db=echo,
+            depth_db=depth,
         ))
     return out

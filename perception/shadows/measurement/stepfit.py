@@ -11,16 +11,27 @@ half-way level); fitting the whole step instead is not:
     y(x) = a + b * Phi(sign * (x0 - x) / s)
 
 with ``Phi`` the standard normal CDF, levels ``a`` (far side) and ``a + b`` (near side),
-edge ``x0`` and blur ``s`` free, by damped Gauss-Newton (Levenberg-Marquardt), all
-profiles together (arrays of shape (n_profiles, n_samples); each profile has its own
-window as 0/1 weights). ``sign`` +1 fits a fall (bright before the edge, dark after: the
-far top edge), -1 a rise (the shadow's end, a highlight's start).
+edge ``x0`` and blur ``s`` free. For given ``x0, s`` the levels are linear least squares,
+so the fit searches ``x0, s`` over banks of templates ``Phi((x0 - x) / s)`` (all profiles
+against all templates as three matrix products: the cost of every template follows in
+closed form): a coarse bank about the expected edge, then a fine one about each profile's
+best (the profiles shifted by whole samples so that one bank serves all), and ``x0``
+between the fine bank's steps from a parabola through the costs.
+Speckle is multiplicative (a sample's variance grows as its mean squared), so after the
+first, unweighted search each sample is weighted by ``1 / mean^2`` of the model found
+(the gamma likelihood's score equations; unweighted, the bright side's noise pulls the
+edge towards it), the mean floored at a small fraction of the bright level.
 
-Units: ``x`` in samples (any origin), the levels in the profiles' units.
+A rise (``sign`` -1) is the same family of curves (``Phi(-z) = 1 - Phi(z)``) with the
+level difference of the other sign: one bank serves both.
+
+Units: ``x`` in samples (0 .. m - 1), the levels in the profiles' units.
 """
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,14 +40,22 @@ from scipy.special import ndtr
 
 FloatArray = NDArray[np.float64]
 
-#: Gauss-Newton iterations, the first ones unweighted.
-ITERATIONS = 10
-UNWEIGHTED_ITERATIONS = 3
 #: Weights use means floored at this fraction of the bright level.
 FLOOR_FRACTION = 0.02
-#: Narrowest and widest blur fitted, samples.
+#: Narrowest and widest blur searched, samples (the widest also at most half the window).
 MIN_BLUR_SAMPLES = 0.3
-_SQRT_2PI = float(np.sqrt(2.0 * np.pi))
+MAX_BLUR_SAMPLES = 16.0
+#: Blurs of the coarse and of the fine bank (geometric steps between the two bounds).
+COARSE_BLURS = 8
+FINE_BLURS = 24
+#: Edge step of the coarse bank and its reach either side of the expected edge, and of the
+#: fine bank about the coarse best, samples.
+COARSE_STEP_SAMPLES = 0.5
+COARSE_REACH_SAMPLES = 3.0
+FINE_STEP_SAMPLES = 0.1
+FINE_REACH_SAMPLES = 0.8
+FINE_REWEIGHTS = 1
+_SQRT_2PI = math.sqrt(2.0 * math.pi)
 
 
 @dataclass(frozen=True)
@@ -50,11 +69,11 @@ class StepFit:
     edge_std : ndarray
         1-sigma of ``x0`` from the fit's residuals, samples.
     low, high : ndarray
-        The dark and the bright level (``a`` and ``a + b`` for a positive ``b``).
+        The dark and the bright level.
     blur : ndarray
         ``s``, samples.
     ok : ndarray, bool
-        Converged to a step of positive contrast inside its window.
+        A step of the asked sign's contrast inside its window.
     """
 
     edge: FloatArray
@@ -65,42 +84,106 @@ class StepFit:
     ok: NDArray[np.bool_]
 
 
-def _levels(phi: FloatArray, y: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Weighted least-squares ``a, b`` of ``y = a + b phi`` per profile."""
-    sw = w.sum(axis=1)
-    sp = (w * phi).sum(axis=1)
-    spp = (w * phi * phi).sum(axis=1)
-    sy = (w * y).sum(axis=1)
-    spy = (w * phi * y).sum(axis=1)
-    det = sw * spp - sp * sp
-    safe = np.where(np.abs(det) > 1e-12 * np.maximum(sw * spp, 1e-300), det, np.nan)
-    b = (sw * spy - sp * sy) / safe
-    a = (sy - b * sp) / np.maximum(sw, 1e-300)
-    return a, b
+@dataclass(frozen=True)
+class _Bank:
+    """Templates ``Phi((centre + offset - x) / blur)``, x = 0 .. m - 1: ``t`` (m, K) and
+    ``t2 = t * t``; ``offsets`` and ``blurs`` (K,) each; ``n_blurs`` blurs per offset
+    (offsets vary slowest)."""
+
+    t: FloatArray
+    t2: FloatArray
+    offsets: FloatArray
+    blurs: FloatArray
+    n_blurs: int
+
+
+@functools.lru_cache(maxsize=32)
+def _bank(m: int, centre: float, reach: float, step: float, n_blurs: int, widest: float) -> _Bank:
+    n_off = int(round(reach / step))
+    offsets = np.arange(-n_off, n_off + 1) * step
+    blurs = np.geomspace(MIN_BLUR_SAMPLES, max(widest, MIN_BLUR_SAMPLES * 1.01), n_blurs)
+    off, blur = (v.ravel() for v in np.meshgrid(offsets, blurs, indexing="ij"))
+    x = np.arange(m, dtype=np.float64)
+    t = ndtr((centre + off[None, :] - x[:, None]) / blur[None, :])
+    t2 = t * t
+    for array in (t, t2, off, blur):
+        array.flags.writeable = False
+    return _Bank(t=t, t2=t2, offsets=off, blurs=blur, n_blurs=n_blurs)
+
+
+@dataclass(frozen=True)
+class _Search:
+    """The best template of each profile (``best`` (n,) into the bank) with its levels
+    ``a`` (after the edge) and ``b`` (before minus after), and every template's ``score``
+    (n, K): the weighted sum of squares the template explains beyond a constant, negative
+    for a level difference of the wrong sign (the cost is a constant per profile minus it)."""
+
+    best: NDArray[np.intp]
+    a: FloatArray
+    b: FloatArray
+    score: FloatArray
+
+
+def _search(y: FloatArray, w: FloatArray, bank: _Bank, sign: FloatArray) -> _Search:
+    """Weighted least squares of every profile against every template (three products)."""
+    wy = w * y
+    sw = np.add.reduce(w, axis=1)[:, None]
+    sy = np.add.reduce(wy, axis=1)[:, None]
+    sp = w @ bank.t
+    num = wy @ bank.t
+    num *= sw
+    num -= sp * sy  # sw * spy - sp * sy: b times det
+    det = w @ bank.t2
+    det *= sw
+    det -= sp * sp  # sw * spp - sp^2 >= 0 (0 for a template flat over the window)
+    det += 1e-12 * sw * sw
+    score = num * np.abs(num)
+    score *= sign[:, None]
+    score /= det  # the explained sum of squares times sw, signed
+    rows = np.arange(y.shape[0])
+    best = score.argmax(axis=1)
+    b = num[rows, best] / det[rows, best]
+    a = (sy[:, 0] - b * sp[rows, best]) / sw[:, 0]
+    return _Search(best=best, a=a, b=b, score=score)
+
+
+def _gamma_weights(w: FloatArray, a: FloatArray, b: FloatArray, phi: FloatArray) -> FloatArray:
+    """``w / mean^2`` of the model ``a + b phi`` (levels (n,), phi (n, m)), the mean floored."""
+    floor = FLOOR_FRACTION * np.maximum(np.abs(a), np.abs(a + b)) + 1e-300
+    mean = np.maximum(a[:, None] + b[:, None] * phi, floor[:, None])
+    return w / (mean * mean)
+
+
+def _vertex(sm: FloatArray, s0: FloatArray, sp: FloatArray, inner: NDArray[np.bool_]) -> FloatArray:
+    """Vertex of the parabola through three equally spaced scores (a maximum), in steps from
+    the middle one (within half a step; 0 at the bank's edges or where they do not curve)."""
+    curvature = sm - 2.0 * s0 + sp
+    inner = inner & (curvature < 0)
+    step = 0.5 * (sm - sp) / np.where(inner, curvature, -1.0)
+    return np.clip(np.where(inner, step, 0.0), -0.5, 0.5)
 
 
 def fit_steps(
     y: FloatArray,
     weights: FloatArray,
     *,
-    edge0: FloatArray,
-    blur0: float | FloatArray,
-    sign: float = 1.0,
+    edge0: float,
+    sign: float | FloatArray = 1.0,
 ) -> StepFit:
     """Fit ``y = a + b Phi(sign (x0 - x) / s)`` to each row of ``y`` (x = 0, 1, 2, ...).
 
     Parameters
     ----------
     y : ndarray, shape (n, m)
-        Profiles (linear power).
+        Profiles (linear power, >= 0).
     weights : ndarray, shape (n, m)
-        1 inside each profile's window, 0 outside (or any non-negative weights).
-    edge0 : ndarray, shape (n,)
-        Starting edges, samples.
-    blur0 : float or ndarray
-        Starting blur, samples.
-    sign : float
-        +1: bright before the edge (a fall); -1: a rise.
+        1 inside each profile's window, 0 outside (or any non-negative weights); each
+        profile needs some weight.
+    edge0 : float
+        Where the edges are expected, samples (the same in every profile); the search
+        covers ``COARSE_REACH_SAMPLES`` either side of it.
+    sign : float or ndarray, shape (n,)
+        Per profile: +1 bright before the edge (a fall); -1 a rise.
 
     Returns
     -------
@@ -109,72 +192,51 @@ def fit_steps(
     y = np.asarray(y, dtype=np.float64)
     w = np.asarray(weights, dtype=np.float64)
     n, m = y.shape
-    x = np.arange(m, dtype=np.float64)[None, :]
+    sign = np.asarray(sign, dtype=np.float64) * np.ones(n)
     inside = w > 0
-    first = np.where(inside.any(axis=1), inside.argmax(axis=1), 0).astype(np.float64)
-    last = np.where(inside.any(axis=1), m - 1 - inside[:, ::-1].argmax(axis=1), m - 1).astype(np.float64)
-    x0 = np.clip(np.asarray(edge0, dtype=np.float64), first, last)
-    span = np.maximum(last - first, 1.0)
-    s = np.clip(np.broadcast_to(np.asarray(blur0, dtype=np.float64), (n,)).copy(), MIN_BLUR_SAMPLES, span / 2)
-    lam = np.full(n, 1e-2)
-
-    def model(x0: FloatArray, s: FloatArray, wt: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray,
-                                                                       FloatArray, FloatArray]:
-        z = sign * (x0[:, None] - x) / s[:, None]
-        phi = ndtr(z)
-        a, b = _levels(phi, y, wt)
-        r = y - (a[:, None] + b[:, None] * phi)
-        return z, phi, a, b, r
-
-    z, phi, a, b, r = model(x0, s, w)
-    wt = w
-    for it in range(ITERATIONS):
-        if it >= UNWEIGHTED_ITERATIONS:
-            # Speckle is multiplicative: a sample's variance grows as its mean squared, so
-            # each sample is weighted by 1 / mean^2 (the gamma likelihood's score equations);
-            # unweighted, the bright side's noise pulls the edge towards it. The mean is
-            # floored at a small fraction of the bright level (a dark level near zero would
-            # take every weight).
-            floor = np.maximum(FLOOR_FRACTION * np.abs(a + b), 1e-300)[:, None]
-            mean = np.maximum(a[:, None] + b[:, None] * phi, floor)
-            wt = w / (mean * mean)
-            z, phi, a, b, r = model(x0, s, wt)
-        cost = (wt * r * r).sum(axis=1)
-        dens = np.exp(-0.5 * z * z) / _SQRT_2PI
-        # d model / d x0 and d model / d log s (a, b at their least squares; variable projection
-        # to first order: their own derivatives are orthogonal to the residual)
-        j0 = (b / s)[:, None] * dens * sign
-        j1 = -b[:, None] * dens * z
-        g0 = (wt * j0 * r).sum(axis=1)
-        g1 = (wt * j1 * r).sum(axis=1)
-        h00 = (wt * j0 * j0).sum(axis=1)
-        h01 = (wt * j0 * j1).sum(axis=1)
-        h11 = (wt * j1 * j1).sum(axis=1)
-        h00d, h11d = h00 * (1 + lam), h11 * (1 + lam)
-        det = h00d * h11d - h01 * h01
-        det = np.where(np.abs(det) > 1e-300, det, np.inf)
-        d0 = (h11d * g0 - h01 * g1) / det
-        d1 = (h00d * g1 - h01 * g0) / det
-        d1 = np.clip(d1, -0.7, 0.7)
-        d0 = np.clip(d0, -0.5 * span, 0.5 * span)
-        x_new = np.clip(x0 + d0, first, last)
-        s_new = np.clip(s * np.exp(d1), MIN_BLUR_SAMPLES, span / 2)
-        z_n, phi_n, a_n, b_n, r_n = model(x_new, s_new, wt)
-        cost_n = (wt * r_n * r_n).sum(axis=1)
-        better = np.isfinite(cost_n) & (cost_n <= cost)
-        keep = better[:, None]
-        x0, s = np.where(better, x_new, x0), np.where(better, s_new, s)
-        z, phi, r = np.where(keep, z_n, z), np.where(keep, phi_n, phi), np.where(keep, r_n, r)
-        a, b, cost = np.where(better, a_n, a), np.where(better, b_n, b), np.where(better, cost_n, cost)
-        lam = np.where(better, lam * 0.3, lam * 10.0)
-    dens = np.exp(-0.5 * z * z) / _SQRT_2PI
-    j0 = (b / s)[:, None] * dens * sign
-    floor = np.maximum(FLOOR_FRACTION * np.abs(a + b), 1e-300)[:, None]
-    mean = np.maximum(a[:, None] + b[:, None] * phi, floor)
-    wt = w / (mean * mean)
-    dof = np.maximum(w.sum(axis=1) - 4.0, 1.0)
-    var_res = (wt * r * r).sum(axis=1) / dof
-    h00 = (wt * j0 * j0).sum(axis=1)
-    edge_std = np.sqrt(var_res / np.maximum(h00, 1e-300))
-    ok = np.isfinite(x0) & np.isfinite(b) & (b > 0) & (x0 > first) & (x0 < last) & np.isfinite(edge_std)
-    return StepFit(edge=x0, edge_std=edge_std, low=a, high=a + b, blur=s, ok=ok)
+    first = inside.argmax(axis=1)
+    last = m - 1 - inside[:, ::-1].argmax(axis=1)
+    # Each profile on its own scale (the closed forms then stay well conditioned).
+    scale = np.add.reduce(w * y, axis=1) / np.add.reduce(w, axis=1) + 1e-300
+    y = y / scale[:, None]
+    widest = min(MAX_BLUR_SAMPLES, max(m - 1, 1) / 2.0)
+    rows = np.arange(n)
+    coarse = _bank(m, float(edge0), min(COARSE_REACH_SAMPLES, edge0 - 1.0), COARSE_STEP_SAMPLES, COARSE_BLURS, widest)
+    # Unweighted (weights from a model far off would pull the step anywhere), then the fine
+    # bank weighted by the model found.
+    found = _search(y, w, coarse, sign)
+    # The fine bank about each profile's best, on profiles shifted by whole samples.
+    shift = np.rint(coarse.offsets[found.best]).astype(np.intp)
+    cols = np.arange(m)[None, :] + shift[:, None]
+    valid = (cols >= 0) & (cols < m)
+    cols = np.clip(cols, 0, m - 1)
+    wt = _gamma_weights(w, found.a, found.b, coarse.t[:, found.best].T)
+    y_s = np.where(valid, y[rows[:, None], cols], 0.0)
+    wt_s = np.where(valid, wt[rows[:, None], cols], 0.0)
+    fine = _bank(m, float(edge0), FINE_REACH_SAMPLES, FINE_STEP_SAMPLES, FINE_BLURS, widest)
+    found = _search(y_s, wt_s, fine, sign)
+    for _ in range(FINE_REWEIGHTS):
+        wt_s = _gamma_weights(np.where(valid, w[rows[:, None], cols], 0.0), found.a, found.b, fine.t[:, found.best].T)
+        found = _search(y_s, wt_s, fine, sign)
+    n_blurs = fine.n_blurs
+    n_off = fine.offsets.size // n_blurs
+    j, k = np.divmod(found.best, n_blurs)
+    cube = found.score.reshape(n, n_off, n_blurs)
+    step = _vertex(cube[rows, np.maximum(j - 1, 0), k], cube[rows, j, k], cube[rows, np.minimum(j + 1, n_off - 1), k],
+                   (j > 0) & (j < n_off - 1))
+    x0 = float(edge0) + shift + fine.offsets[found.best] + step * FINE_STEP_SAMPLES
+    blur = fine.blurs[found.best]
+    a, b = found.a, found.b
+    # The edge's 1-sigma from the weighted residuals and the edge's Jacobian.
+    z = (x0[:, None] - np.arange(m)[None, :]) / blur[:, None]
+    phi = ndtr(z)
+    r = y - (a[:, None] + b[:, None] * phi)
+    wt = _gamma_weights(w, a, b, phi)
+    j0 = (b / blur)[:, None] * np.exp(-0.5 * z * z) * (1.0 / _SQRT_2PI)
+    var_res = np.add.reduce(wt * r * r, axis=1) / np.maximum(np.add.reduce(w, axis=1) - 4.0, 1.0)
+    h00 = np.add.reduce(wt * j0 * j0, axis=1) + 1e-300
+    edge_std = np.sqrt(var_res / h00)
+    ok = (sign * b > 0) & np.isfinite(x0) & np.isfinite(edge_std) & (x0 > first) & (x0 < last)
+    low = np.minimum(a, a + b) * scale
+    high = np.maximum(a, a + b) * scale
+    return StepFit(edge=x0, edge_std=edge_std, low=low, high=high, blur=blur, ok=ok)

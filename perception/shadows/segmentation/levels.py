@@ -13,7 +13,6 @@ import math
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy.ndimage import median_filter
 
 #: Image levels proportional to dB: the uint8 display image or float32 dB.
 Levels = NDArray[np.uint8] | NDArray[np.float32]
@@ -112,15 +111,35 @@ def block_levels(image: Levels, row_step: int, *, beams: int) -> NDArray[np.floa
     d = max(1, min(int(row_step), n_rows))
     n_grid = n_rows // d
     blocks = image[: n_grid * d].reshape(n_grid, d, n_cols)
-    if image.dtype == np.uint8:
-        total = np.add.reduce(blocks, axis=1, dtype=np.uint16 if d <= 257 else np.uint32)
+    if image.dtype == np.uint8 and d * beams <= 257:
+        # Row by row into uint16 (cheaper than a reduction along the middle axis), then the
+        # beams' sums (edges replicated) in integers too: exact, one conversion to float.
+        total = blocks[:, 0].astype(np.uint16)
+        for i in range(1, d):
+            total += blocks[:, i]
+        if beams > 1 and n_cols > 1:
+            total = _beam_sums(total, beams)
+            d *= beams
         out = total.astype(np.float32)
-    else:
-        out = np.add.reduce(blocks, axis=1, dtype=np.float32)
+        out *= np.float32(1.0 / d)
+        return out
+    out = np.add.reduce(blocks, axis=1, dtype=np.float32)
     out *= np.float32(1.0 / d)
     if beams > 1:
         out = np.asarray(cv2.boxFilter(out, -1, (beams, 1), normalize=True, borderType=cv2.BORDER_REPLICATE),
                          dtype=np.float32)
+    return out
+
+
+def _beam_sums(total: NDArray[np.uint16], beams: int) -> NDArray[np.uint16]:
+    """Sums over ``beams`` (odd) neighbouring columns, edges replicated, of a uint16 array (new array)."""
+    half = beams // 2
+    padded = np.concatenate([np.repeat(total[:, :1], half, axis=1), total, np.repeat(total[:, -1:], half, axis=1)],
+                            axis=1)
+    n_cols = total.shape[1]
+    out = padded[:, :n_cols].copy()
+    for k in range(1, beams):
+        out += padded[:, k : k + n_cols]
     return out
 
 
@@ -149,16 +168,22 @@ def level_spread(grid: NDArray[np.float32], background: NDArray[np.float32], row
     n = flat.size
     if n < 8:
         return float(np.std(flat))
+    # (numpy's vectorised sort costs less than its partition for a few thousand values.)
+    ordered = np.sort(flat)
     k75, k90 = int(0.75 * (n - 1)), int(0.90 * (n - 1))
-    part = np.partition(flat, (k75, k90))
-    first = float(part[k90] - part[k75]) / 0.6071
-    centre = float(part[k75]) - 0.6745 * first  # the seabed's median, from its upper quartile
-    kept = flat[np.abs(flat - centre) <= 3.0 * first] if first > 0 else flat
+    first = float(ordered[k90] - ordered[k75]) / 0.6071
+    centre = float(ordered[k75]) - 0.6745 * first  # the seabed's median, from its upper quartile
+    if first > 0:
+        # The values within 3 first estimates of the centre: a run of the sorted values.
+        i0 = int(np.searchsorted(ordered, centre - 3.0 * first, side="left"))
+        i1 = int(np.searchsorted(ordered, centre + 3.0 * first, side="right"))
+        kept = ordered[i0:i1]
+    else:
+        kept = ordered
     if kept.size < 8:
         return first
     k25, k75 = int(0.25 * (kept.size - 1)), int(0.75 * (kept.size - 1))
-    part = np.partition(kept, (k25, k75))
-    return float(part[k75] - part[k25]) / 1.349
+    return float(kept[k75] - kept[k25]) / 1.349
 
 
 def row_spread(grid: NDArray[np.float32], background: NDArray[np.float32], *, block_rows: int) -> NDArray[np.float32]:
@@ -178,14 +203,19 @@ def row_spread(grid: NDArray[np.float32], background: NDArray[np.float32], *, bl
     n_rows, n_cols = grid.shape
     block = max(1, min(int(block_rows), n_rows))
     n_blocks = n_rows // block
-    residual = (grid[: n_blocks * block] - background[: n_blocks * block, None]).reshape(n_blocks, block * n_cols)
+    # Every other beam: neighbouring beams of the grid share a beam of smoothing.
+    step = 2 if n_cols >= 16 else 1
+    residual = (grid[: n_blocks * block, ::step] - background[: n_blocks * block, None]).reshape(n_blocks, -1)
     m = residual.shape[1]
     k50, k75, k90 = int(0.50 * (m - 1)), int(0.75 * (m - 1)), int(0.90 * (m - 1))
-    part = np.partition(residual, (k50, k75, k90), axis=1)
+    part = np.sort(residual, axis=1)  # (vectorised: cheaper than a partition at three places)
     spread = np.minimum((part[:, k75] - part[:, k50]) / np.float32(0.6745),
                         (part[:, k90] - part[:, k75]) / np.float32(0.6071))
     if spread.size >= 3:
-        spread = np.maximum(np.minimum(spread, np.maximum(np.roll(spread, 1), np.roll(spread, -1))), 0)
+        # The median of each block's and its two neighbours' (the ends wrap around).
+        before = np.concatenate([spread[-1:], spread[:-1]])
+        after = np.concatenate([spread[1:], spread[:1]])
+        spread = np.maximum(np.minimum(spread, np.maximum(before, after)), 0)
     centres = (np.arange(n_blocks) + 0.5) * block - 0.5
     return np.interp(np.arange(n_rows), centres, spread).astype(np.float32)
 
@@ -230,7 +260,10 @@ def row_background(
     block = max(1, min(int(block_rows), n_rows))
     n_blocks = n_rows // block
     if block > 1:
-        small = np.add.reduce(grid[: n_blocks * block].reshape(n_blocks, block, n_cols), axis=1)
+        blocks = grid[: n_blocks * block].reshape(n_blocks, block, n_cols)
+        small = blocks[:, 0].copy()
+        for i in range(1, block):
+            small += blocks[:, i]
         small *= np.float32(1.0 / block)
     else:
         small = grid
@@ -247,7 +280,7 @@ def row_background(
         level = np.partition(small, k, axis=1)[:, k].astype(np.float32)
     size = max(1, int(median_blocks) | 1)
     if size > 1 and level.size > 1:
-        level = np.minimum(level, median_filter(level, size=size, mode="nearest"))
+        level = np.minimum(level, running_median(level, size=size))
     if block == 1:
         return np.asarray(level, dtype=np.float32)
     centres = (np.arange(n_blocks) + 0.5) * block - 0.5
@@ -260,6 +293,23 @@ def _row_kernel(size: int) -> NDArray[np.uint8]:
     kernel = np.ones((1, size), dtype=np.uint8)
     kernel.flags.writeable = False
     return kernel
+
+
+def running_median(values: NDArray[np.float32], *, size: int) -> NDArray[np.float32]:
+    """Running median over ``size`` (odd) neighbours, edges replicated (scipy's
+    ``median_filter`` with ``mode="nearest"``, without its call overhead), shape of ``values``."""
+    windows = values[_window_index(values.size, size)]
+    windows.sort(axis=1)
+    return windows[:, size // 2].astype(np.float32)
+
+
+@functools.lru_cache(maxsize=16)
+def _window_index(n: int, size: int) -> NDArray[np.intp]:
+    """Indices of the ``size`` neighbours of each of ``n`` values, edges replicated, shape (n, size)."""
+    half = size // 2
+    index = np.clip(np.arange(n)[:, None] + np.arange(-half, half + 1)[None, :], 0, n - 1)
+    index.flags.writeable = False
+    return index
 
 
 def running_min_max(

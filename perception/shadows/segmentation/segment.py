@@ -106,6 +106,16 @@ NOISE_PERCENTILE = 2.0
 MIN_SIGMA_DB = 0.5
 
 
+def sorted_percentile(ordered: NDArray[np.float32], q: float) -> float:
+    """``np.percentile(values, q)`` (linear interpolation) of values already sorted (at least one)."""
+    pos = q / 100.0 * (ordered.size - 1)
+    k = int(pos)
+    if k + 1 >= ordered.size:
+        return float(ordered[-1])
+    lo, hi = float(ordered[k]), float(ordered[k + 1])
+    return lo + (pos - k) * (hi - lo)
+
+
 def sample_spacing_m(range_m: NDArray[np.float64] | None, n_samples: int) -> float:
     """Mean spacing of ``range_m`` (m), or 1 mm when no range axis is given."""
     if range_m is None:
@@ -154,22 +164,23 @@ def segment(
     non_negative = levels.dtype == np.uint8
     background = row_background(grid, block_rows=block, median_blocks=median_blocks, non_negative=non_negative)
     # The noise floor: the darkest rows, blanked ones (all at the floor of the levels) aside.
-    lowest = float(background.min())
-    unblanked = background[background > lowest + 1e-3]
-    noise = float(np.percentile(unblanked if unblanked.size >= 4 else background, NOISE_PERCENTILE))
+    ordered = np.sort(background)
+    lowest = float(ordered[0])
+    unblanked = ordered[int(np.searchsorted(ordered, lowest + 1e-3, side="right")):]
+    noise = sorted_percentile(unblanked if unblanked.size >= 4 else ordered, NOISE_PERCENTILE)
+    top = sorted_percentile(ordered, 95.0)
     # The spread, first over the rows half-way or more from the noise floor to the brightest
     # (surely seabed when there is any), then over the band it finds.
-    upper = background >= 0.5 * (noise + float(np.percentile(background, 95)))
+    upper = background >= 0.5 * (noise + top)
     sigma0 = max(level_spread(grid, background, upper), MIN_SIGMA_DB / db_per_level)
     lit_level = noise + cfg.band_sigmas * sigma0
     band = longest_run(background >= lit_level)
-    if not band.any() or float(np.percentile(background, 95)) - noise < BAND_CONTRAST_SIGMAS * sigma0:
+    if not band.any() or top - noise < BAND_CONTRAST_SIGMAS * sigma0:
         band = np.ones_like(band)
     sigma = max(level_spread(grid, background, band), MIN_SIGMA_DB / db_per_level) if band.any() else sigma0
     # A row holds seabed where its level stands clear of the noise floor: by band_sigmas
     # spreads, and by a fifth of the way from the floor to the seabed's brightest rows
     # (noise of one look spreads wider than a many-look seabed's speckle).
-    top = float(np.percentile(background, 95))
     if top - noise < BAND_CONTRAST_SIGMAS * sigma:
         # No row stands clear of the darkest: the seabed fills the whole window (its
         # dimmest rows are no noise floor).
@@ -277,17 +288,30 @@ def _classical(levels: Levels, db_per_level: float, sample_m: float, cfg: Segmen
 
 def hysteresis_along_beams(strong: NDArray[np.bool_], weak: NDArray[np.bool_]) -> NDArray[np.bool_]:
     """Per beam (column), every run of ``weak`` rows that holds a ``strong`` row (``strong``
-    must lie inside ``weak``... it is added to it), shape of the masks."""
-    mask = weak | strong
+    is added to ``weak``), shape of the masks.
+
+    Only the beams with a ``strong`` row, and the rows from the first to the last of the
+    masks there, are worked on.
+    """
+    out = np.zeros(strong.shape, dtype=bool)
+    cols = np.flatnonzero(np.logical_or.reduce(strong, axis=0))
+    if cols.size == 0:
+        return out
+    mask = (weak[:, cols] | strong[:, cols])
+    occupied = np.flatnonzero(np.logical_or.reduce(mask, axis=1))
+    r0, r1 = int(occupied[0]), int(occupied[-1]) + 1
+    mask = mask[r0:r1]
     n_rows, n_cols = mask.shape
     starts = mask.copy()
     starts[1:] &= ~mask[:-1]
-    run_id = np.cumsum(starts, axis=0) * mask  # 1.. per run within a column, 0 outside
-    key = run_id + (np.arange(n_cols) * (n_rows + 1))[None, :]
+    run_id = np.cumsum(starts, axis=0, dtype=np.int32)
+    run_id *= mask  # 1.. per run within a column, 0 outside
+    run_id += (np.arange(n_cols, dtype=np.int32) * (n_rows + 1))[None, :]
     has = np.zeros(n_cols * (n_rows + 1), dtype=bool)
-    has[key[strong]] = True
-    has[np.arange(n_cols) * (n_rows + 1)] = False  # id 0: outside any run
-    return has[key]
+    has[run_id[strong[r0:r1, cols]]] = True
+    has[::n_rows + 1] = False  # id 0 of each column: outside any run
+    out[r0:r1, cols] = has[run_id]
+    return out
 
 
 def _core_pixels(
