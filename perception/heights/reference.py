@@ -37,6 +37,7 @@ def onset_reference_altitude(onsets: Sequence[OnsetAltitude]) -> tuple[float, fl
     noise_std = max(float(np.sqrt(np.mean(noise**2))), scatter) / math.sqrt(refs.size)
     return mean, math.hypot(common, noise_std)
 
+
 def shared_reference_altitude(
     tracks: Sequence[Track], solver: TargetSolver, onsets: Sequence[OnsetAltitude], config: HeightsConfig
 ) -> tuple[float, float] | None:
@@ -47,12 +48,14 @@ def shared_reference_altitude(
     dropping those more than 3 sigma from the median, is the shadows' estimate (needs
     two targets). This is the joint least-squares solution of one common altitude
     with every target's height free. The seabed onset's estimate
-    (:func:`onset_reference_altitude`, when ``config.seabed_onset_altitude``) joins
-    as one more independent measurement; targets whose own altitude disagrees with it
-    by more than 3 sigma are then left out, unless two or more and more than half of
-    them disagree (then the onset is left out: a wrong tilt, or a seabed near the
-    sonar at another level than under the targets). The sigma is widened by the
-    scatter. None when neither source gives an estimate.
+    (:func:`onset_reference_altitude`, when ``config.seabed_onset_altitude``) leads
+    when there is one: a target's own altitude is poorly conditioned and carries the
+    edges' systematic errors that its sigma does not hold (on the second forward model
+    most targets' own altitudes disagree with a right onset by more than 3 of their
+    sigmas), so only targets about as sure as the onset (sigma at most twice the
+    onset's) that agree with it (within 3 combined sigma) join it. The onset trusts the
+    frames' tilt: a tilt error moves it (``seabed_onset_altitude=False`` then keeps the
+    shadows' own estimate). None when neither source gives an estimate.
     """
     values, sigmas = [], []
     for track in tracks:

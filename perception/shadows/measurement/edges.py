@@ -237,7 +237,11 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     stop = np.minimum(np.arange(m_rows) + half_level, m_rows)
     run = (cum[stop] - cum[:-1]) / (stop - np.arange(m_rows))[:, None]
     local = np.arange(m_rows)[:, None]
-    in_region = (local >= (sf - d)[None, :]) & (local <= (sl + d - half_level + 1)[None, :])
+    # The region's rows, within each beam's band (the dark beyond the band's far edge is
+    # no part of a shadow that ends before it).
+    band_start, band_stop = seg.band_start_rows[beams] - lo, seg.band_stop_rows[beams] - lo
+    in_region = ((local >= np.maximum(sf - d, band_start)[None, :])
+                 & (local <= np.minimum(sl + d, band_stop + 1)[None, :] - half_level + 1))
     floor = np.where(in_region, run, np.inf).min(axis=0)
     b_lin = seg.power_of(np.asarray(seg.background, dtype=np.float32))[rows]
     deep = (run * run < floor[None, :] * b_lin) & in_region
@@ -250,7 +254,9 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     short = interior_b - interior_a < 2
     interior_a = np.where(short, mid_shadow, interior_a)
     interior_b = np.where(short, mid_shadow + 1, interior_b)
-    f_a = deep_end + d + 1
+    # The seabed after the shadow: from a grid step past its end, but inside the band
+    # (a shadow ending near the band's far edge leaves less room there).
+    f_a = np.maximum(deep_end + 3, np.minimum(deep_end + d + 1, band_stop + 1 - level_n))
     tf, tl = t_first - lo, t_last - lo
     # The levels: shadow, echo before it, seabed after it, seabed before the highlight, highlight.
     means = _window_means(cum, np.stack([interior_a, deep_start - d - level_n, f_a, tf - d - level_n, tf + d]),

@@ -141,14 +141,19 @@ def measure_pair(
                          config=config)[0]
 
 
-def _cuts(pair: Pair, edges: FrameEdges, n: int, n_rows: int) -> list[str]:
-    """Reasons (sentences) that cut the measurement of pair ``n``, from its flags and its beams."""
+def _cuts(pair: Pair, edges: FrameEdges, n: int, segmentation: Segmentation) -> list[str]:
+    """Reasons (sentences) that cut the measurement of pair ``n``, from its flags and its beams
+    (where the insonified band runs to the window's last grid step, a shadow cut at the
+    band's far edge runs to the window's end)."""
     reasons = [TRUNCATION_REASONS[f] for f in pair.fov_flags if f in _CUTTING_FLAGS and f != "band_far"
                and f != "band_near"]
     central = int(edges.n_central[n])
     cut_far, cut_near = int(edges.cut_far[n]), int(edges.cut_near[n])
     if central and 2 * cut_far > central:
-        where = "window_end" if pair.shadow.row_stop >= n_rows else "band_far"
+        n_rows = segmentation.n_rows
+        band_end = int(np.max(segmentation.band_stop_rows[list(pair.columns)]))
+        where = ("window_end" if pair.shadow.row_stop >= n_rows or band_end >= n_rows - 2 * segmentation.row_step
+                 else "band_far")
         reasons.append(f"{TRUNCATION_REASONS[where]}, in {cut_far} of its {central} central beams")
     if central and 2 * cut_near > central:
         reasons.append(f"{TRUNCATION_REASONS['band_near']}, in {cut_near} of its {central} central beams")
@@ -212,7 +217,7 @@ def measure_pairs(
     top_l, end_l, near_l, azimuth_l = top.tolist(), end.tolist(), near.tolist(), azimuth.tolist()
     out = []
     for n, pair in enumerate(pairs):
-        reasons = _cuts(pair, edges, n, n_rows)
+        reasons = _cuts(pair, edges, n, segmentation)
         highlight_m = (float(range_m[pair.highlight.row_start]) if pair.highlight is not None
                        else float(range_m[min(pair.shadow.row_start, n_rows - 1)]))
         a, b = bounds[n], bounds[n + 1]

@@ -192,6 +192,28 @@ def _smooth_near_edge(segmentation: Segmentation, label: int, col_a: int, col_b:
     return abs(step - trend) * segmentation.sample_m <= NEAR_EDGE_JUMP_M
 
 
+#: Shadows on the two sides of a jump behind one highlight whose lengths differ by more than
+#: this factor belong to targets of different heights.
+MERGE_LENGTH_RATIO = 1.5
+
+
+#: Within one run (no jump), the shadows behind two highlights are one target's when their
+#: lengths differ by at most this factor.
+SAME_TARGET_LENGTH_RATIO = 1.25
+
+
+def _similar_lengths(first: list[int], last: list[int], a: int, k: int, b: int,
+                     ratio: float = MERGE_LENGTH_RATIO) -> bool:
+    """Whether the shadow lengths (rows) just before position ``k`` (from ``a``) and just
+    after it (to ``b``), medians over up to three beams, differ by at most ``ratio``."""
+    before = sorted(last[i] - first[i] + 1 for i in range(max(a, k - 3), k))
+    after = sorted(last[i] - first[i] + 1 for i in range(k, min(b, k + 3)))
+    if not before or not after:
+        return True
+    x, y = before[len(before) // 2], after[len(after) // 2]
+    return max(x, y) <= ratio * max(min(x, y), 1)
+
+
 def _overlap(segmentation: Segmentation, label: int, n_common: int) -> float:
     """Algorithm 1's ``|T ∩ S| / |T|`` over beams for highlight ``label``."""
     n_t = int(np.count_nonzero(segmentation.highlight_rows[1][label] >= 0))
@@ -236,12 +258,22 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
         blocks: list[tuple[int, int, int]] = []
         for p0, p1 in runs:
             labels = _beam_highlights(segmentation, cols[p0:p1], first[p0:p1], max_rise)
-            for a, b, v in _blocks(labels, cfg.min_run_beams):
+            for k_block, (a, b, v) in enumerate(_blocks(labels, cfg.min_run_beams)):
+                u = blocks[-1][2] if blocks else -1
+                if (k_block > 0 and u >= 0 and v >= 0 and u != v
+                        and _similar_lengths(first, last, blocks[-1][0], p0 + a, p0 + b, SAME_TARGET_LENGTH_RATIO)):
+                    # Two highlights in front of one smooth shadow (no jump: one run) as long
+                    # on both sides: one target whose echo is broken (dim beams through its
+                    # middle, its face's and its top's echoes apart), not two side by side.
+                    blocks[-1] = (blocks[-1][0], p0 + b, u)
+                    continue
                 if (blocks and blocks[-1][2] == v >= 0 and blocks[-1][1] == p0 + a
-                        and _smooth_near_edge(segmentation, v, cols[p0 + a - 1], cols[p0 + a])):
+                        and _smooth_near_edge(segmentation, v, cols[p0 + a - 1], cols[p0 + a])
+                        and _similar_lengths(first, last, blocks[-1][0], p0 + a, p0 + b)):
                     # A jump of the shadow behind one highlight whose near edge runs on
-                    # smoothly is the target's own shape (a corner, a rounded side), not a
-                    # second target (whose echo would start at another range).
+                    # smoothly, with shadows about as long on both sides (as tall), is the
+                    # target's own shape (a corner, a rounded side), not a second target
+                    # (whose echo would start at another range, or whose height differs).
                     blocks[-1] = (blocks[-1][0], p0 + b, v)
                 else:
                     blocks.append((p0 + a, p0 + b, v))

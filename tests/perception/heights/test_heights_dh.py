@@ -73,9 +73,10 @@ def test_onset_joins_the_shared_altitude_and_tightens_it(rng: np.random.Generato
     onset = with_onset.onset_reference_altitude()
     assert joint is not None and alone is not None and onset is not None
     assert shadows_only.onset_reference_altitude() is None
-    # An inverse-variance combination: between its inputs, tighter than either.
+    # The onset leads (targets as sure as it join it): between the inputs, at least as
+    # tight as the onset.
     assert min(alone[0], onset[0]) <= joint[0] <= max(alone[0], onset[0])
-    assert joint[1] < min(alone[1], onset[1])
+    assert joint[1] <= onset[1] < alone[1]
     assert joint[0] == pytest.approx(0.5, abs=3 * joint[1])
     for truth in truths:
         target = min(with_onset.targets(), key=lambda t: abs(t.azimuth_rad - truth.azimuth_rad))
@@ -84,15 +85,16 @@ def test_onset_joins_the_shared_altitude_and_tightens_it(rng: np.random.Generato
         assert abs(target.height_m - truth.box.height_m) < max(3 * target.height_std_m, 0.001)
 
 
-def test_an_onset_that_contradicts_the_shadows_is_not_used(rng: np.random.Generator) -> None:
-    # A wrong tilt moves the onset's altitude by ~30 %: the shadows' own altitude is kept.
+def test_a_wrong_tilt_moves_the_onset_but_not_the_shadows_altitude(rng: np.random.Generator) -> None:
+    # A wrong tilt moves the onset's altitude by ~30 % (the onset trusts the frames' tilt);
+    # the shadows' own estimate, without the onset, stays right.
     frames, _ = _frames(rng)
     tilted = [f.with_fields(tilt_rad=f.tilt_rad + math.radians(15.0)) for f in frames]
     pipeline = _run(tilted)
     onset = pipeline.onset_reference_altitude()
     assert onset is not None and onset[0] > 0.6
     shadows = _run(tilted, HeightsConfig(seabed_onset_altitude=False)).shared_reference_altitude()
-    assert pipeline.shared_reference_altitude() == shadows
+    assert shadows is not None and shadows[0] == pytest.approx(0.5, abs=max(3 * shadows[1], 0.02))
 
 
 def test_a_target_that_contradicts_the_onset_is_left_out(rng: np.random.Generator) -> None:

@@ -82,8 +82,9 @@ def test_targets_are_solved_once_per_frame(rng: np.random.Generator, monkeypatch
     for altitude in (0.5, 0.6):
         pipeline.add_frame(_frame(rng, altitude)[0])
     calls = []
-    solve = pipeline._solve
-    monkeypatch.setattr(pipeline, "_solve", lambda *a, **k: calls.append(1) or solve(*a, **k))
+    solver = pipeline._solver
+    solve = solver.solve
+    monkeypatch.setattr(solver, "solve", lambda *a, **k: calls.append(1) or solve(*a, **k))
     first = pipeline.targets()
     again = pipeline.targets()
     assert again == first and again is not first and len(calls) == 3

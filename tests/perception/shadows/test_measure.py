@@ -72,7 +72,7 @@ def test_ranges_are_read_from_range_zero_not_the_window(
 ) -> None:
     # The same image on a shifted range axis: every measured range shifts by the offset.
     frame, _, _ = render(SynthConfig(boxes=(BOX,)), rng=rng)
-    seg = segment(frame.image)
+    seg = segment(frame.image, range_m=frame.range_m)
     (pair,) = pair_regions(seg)
     a = measure_pair(seg, pair, range_m=frame.range_m, beam_azimuth_rad=frame.beam_azimuth_rad)
     b = measure_pair(
@@ -90,7 +90,8 @@ def test_measurement_fields(rng: np.random.Generator) -> None:
     frame, _, truths = render(SynthConfig(boxes=(BOX,)), rng=rng)
     (m,) = detect_shadows(frame.image, range_m=frame.range_m, beam_azimuth_rad=frame.beam_azimuth_rad)
     assert m.usable and not m.truncated and m.reason is None
-    assert m.r_top_m == pytest.approx(float(np.median(m.r_top_per_beam_m)))
+    assert m.r_top_m == pytest.approx(float(np.mean(m.r_top_per_beam_m)))
+    assert m.r_end_m == pytest.approx(float(np.mean(m.r_end_per_beam_m)))
     assert m.azimuth_rad == pytest.approx(float(np.mean(frame.beam_azimuth_rad[list(m.columns)])))
     assert abs(m.azimuth_rad - truths[0].azimuth_rad) < math.radians(0.5)
     assert 0 < m.sigma_r_m < frame.range_resolution_m
@@ -100,7 +101,9 @@ def test_measurement_fields(rng: np.random.Generator) -> None:
 def test_measure_config_is_validated() -> None:
     with pytest.raises(ValueError, match="central_fraction"):
         MeasureConfig(central_fraction=0.0)
-    with pytest.raises(ValueError, match="smooth_beams"):
-        MeasureConfig(smooth_beams=2)
-    with pytest.raises(ValueError, match="end_contrast_db"):
-        MeasureConfig(end_contrast_db=0.0)
+    with pytest.raises(ValueError, match="min_beams"):
+        MeasureConfig(min_beams=0)
+    with pytest.raises(ValueError, match="smooth_m"):
+        MeasureConfig(smooth_m=0.0)
+    with pytest.raises(ValueError, match="cut_contrast_sigmas"):
+        MeasureConfig(cut_contrast_sigmas=math.inf)

@@ -13,7 +13,7 @@ from tests.perception.shadows.shadow_synth import Box, SynthConfig, render
 
 def _pairs(config: SynthConfig, rng: np.random.Generator, *, image: np.ndarray | None = None):
     frame, _, truths = render(config, rng=rng)
-    seg = segment(frame.image if image is None else image)
+    seg = segment(frame.image if image is None else image, range_m=frame.range_m)
     return frame, seg, pair_regions(seg), truths
 
 
@@ -24,8 +24,14 @@ def test_each_shadow_is_right_behind_its_highlight(rng: np.random.Generator) -> 
     for pair in pairs:
         assert pair.inside_fov
         assert pair.overlap >= 0.5
-        assert pair.highlight.row_stop <= pair.shadow.row_start + 2
         assert set(pair.columns) <= set(range(pair.shadow.col_start, pair.shadow.col_stop))
+        # In each beam the target's echo ends where its shadow starts (to a grid step).
+        h_first, h_last, h_there = seg.column_extents(pair.highlight)
+        s_first, _, s_there = seg.column_extents(pair.shadow)
+        for c in pair.columns:
+            i, j = c - pair.highlight.col_start, c - pair.shadow.col_start
+            if 0 <= i < h_there.size and h_there[i] and s_there[j]:
+                assert h_last[i] <= s_first[j] + seg.row_step
     azimuths = sorted(float(np.mean(frame.beam_azimuth_rad[list(p.columns)])) for p in pairs)
     assert azimuths == pytest.approx(sorted(t.azimuth_rad for t in truths), abs=np.radians(1.0))
 
@@ -77,27 +83,32 @@ def test_a_target_with_no_shadow_is_not_paired(rng: np.random.Generator) -> None
     frame, _, _ = render(SynthConfig(boxes=(box,)), rng=rng)
     image = frame.image.copy()
     image[300:330, 90:100] = 250  # a flat bright patch: highlight, no shadow behind it
-    seg = segment(image)
+    seg = segment(image, range_m=frame.range_m)
     assert len(seg.highlights) == 2
     pairs = pair_regions(seg)
     assert len(pairs) == 1
     assert pairs[0].highlight.col_start < 80
 
 
-def test_thresholds_select_pairs(rng: np.random.Generator) -> None:
+def test_shadows_without_a_highlight_are_targets_unless_asked_not(rng: np.random.Generator) -> None:
+    # A low-contrast box: its echo no brighter than the seabed, its shadow as dark as any.
     box = Box(1.2, 0.0, 0.10, 0.05, 0.039)
-    frame, seg, pairs, _ = _pairs(SynthConfig(boxes=(box,)), rng)
-    ratio = pairs[0].overlap
-    assert pair_regions(seg, config=PairingConfig(overlap_min=ratio, overlap_max=ratio)) == pairs
-    assert pair_regions(seg, config=PairingConfig(overlap_min=min(1.0, ratio + 0.01))) == []
-    assert pair_regions(seg, config=PairingConfig(overlap_min=0.0, overlap_max=ratio / 2)) == []
+    config = SynthConfig(boxes=(box,), top_level=5e4, face_level=1e4)
+    frame, seg, pairs, truths = _pairs(config, rng)
+    assert seg.highlights == () and len(pairs) == 1
+    (pair,) = pairs
+    assert pair.highlight is None and pair.overlap == 0.0
+    m = measure_pair(seg, pair, range_m=frame.range_m, beam_azimuth_rad=frame.beam_azimuth_rad)
+    assert m.usable and not m.has_highlight
+    assert 0.5 * (m.r_end_m - m.r_top_m) / m.r_end_m == pytest.approx(box.height_m, abs=0.002)
+    assert pair_regions(seg, config=PairingConfig(shadow_only=False)) == []
 
 
 def test_pairing_config_is_validated() -> None:
-    with pytest.raises(ValueError, match="overlap"):
-        PairingConfig(overlap_min=0.8, overlap_max=0.5)
-    with pytest.raises(ValueError, match="max_gap"):
-        PairingConfig(max_gap_samples=-1)
+    with pytest.raises(ValueError, match="max_gap_m"):
+        PairingConfig(max_gap_m=-0.1)
+    with pytest.raises(ValueError, match="min_run_beams"):
+        PairingConfig(min_run_beams=0)
 
 
 def test_merged_shadows_of_neighbours_are_shared_by_beam(rng: np.random.Generator) -> None:
@@ -139,12 +150,12 @@ def test_a_highlight_broken_in_two_is_one_target(rng: np.random.Generator) -> No
     box = Box(1.2, 0.0, 0.10, 0.05, 0.039)
     frame, _, truths = render(SynthConfig(boxes=(box,)), rng=rng)
     image = frame.image.copy()
-    whole = segment(image)
+    whole = segment(image, range_m=frame.range_m)
     (hl,) = whole.highlights
     mid = (hl.col_start + hl.col_stop) // 2
     seabed = np.round(whole.background[hl.row_start : hl.row_stop, None]).astype(np.uint8)
     image[hl.row_start : hl.row_stop, mid - 1 : mid + 2] = seabed
-    seg = segment(image)
+    seg = segment(image, range_m=frame.range_m)
     assert len(seg.highlights) == 2 and len(seg.shadows) == 1
     (pair,) = pair_regions(seg)
     assert min(pair.columns) < mid - 1 and max(pair.columns) > mid + 1
