@@ -4,7 +4,8 @@ The renderer's persistent seabed texture (``sim_harness.world.texture``, 3 dB, 1
 patches, as the shipped ``open-seabed`` scene) puts dark patches a few dB below the
 seabed and bright ones a few dB above it. A cast shadow holds only the noise floor, tens
 of dB down, and a target's echo stands well above the seabed; the segmentation keeps only
-regions with such a core (``SegmentationConfig.shadow_core_db``/``highlight_core_db``).
+regions with such a core (``SegmentationConfig.shadow_core_sigmas``/``highlight_core_sigmas``,
+in units of the frame's seabed spread, over ``min_shadow_core_m``/``min_highlight_core_m``).
 """
 
 from __future__ import annotations
@@ -23,9 +24,11 @@ from sim_harness.sonar.viewpoint import choose_tilt_rad
 from sim_harness.world.texture import SeabedTexture
 from sim_harness.world.world import Seabed, TargetSpec, World
 
-#: The segmentation before the texture was handled: 6 dB shadows, no core tests.
+#: A segmentation without the core tests, its thresholds at 2 spreads.
 PLAIN_THRESHOLD = HeightsConfig(
-    segmentation=SegmentationConfig(shadow_db=6.0, min_shadow_core_px=0, min_highlight_core_px=0)
+    segmentation=SegmentationConfig(shadow_sigmas=2.0, shadow_core_sigmas=2.0, shadow_weak_sigmas=1.0,
+                                    highlight_sigmas=2.0, highlight_core_sigmas=2.0, min_shadow_core_m=0.0,
+                                    min_highlight_core_m=0.0)
 )
 
 ALTITUDE_M = 1.2
@@ -62,33 +65,43 @@ def test_textured_seabed_without_targets_gives_no_detection() -> None:
     assert sum(_detections(frame, PLAIN_THRESHOLD) for frame, _ in shots) >= 4
     for frame, _ in shots:
         assert _detections(frame) == 0
-        seg = segment(frame.image)
+        seg = segment(frame.image, range_m=frame.range_m)
         assert seg.highlights == ()  # no bright patch stands 12 dB above the seabed
 
 
 def test_only_regions_with_a_core_are_kept() -> None:
-    # Known answer on a hand-made display image (80 dB over 0-255, no speckle): seabed at
-    # level 120; patches 9 dB and 25 dB below it, 8 dB and 20 dB above it, and a 9 dB
-    # dark patch holding a small 25 dB deep spot (40 px).
-    per_db = 255.0 / 80.0
-    image = np.full((400, 64), 120, np.uint8)
-    image[100:140, 6:16] = round(120 - 9 * per_db)  # texture-like dark patch
-    image[100:140, 26:36] = round(120 - 25 * per_db)  # cast shadow (noise floor)
-    image[100:140, 46:56] = round(120 - 9 * per_db)
-    image[118:122, 48:58] = round(120 - 25 * per_db)  # ... with a deep spot
-    image[250:280, 6:16] = round(120 + 8 * per_db)  # bright patch
-    image[250:280, 26:36] = round(120 + 20 * per_db)  # target echo
-    seg = segment(image, config=SegmentationConfig(smooth_samples=1, smooth_beams=1))
-    boxes = sorted((r.row_start, r.row_stop, r.col_start, r.col_stop) for r in seg.shadows)
-    assert boxes == [(100, 140, 26, 36), (100, 140, 46, 58)]
-    assert [(r.row_start, r.row_stop, r.col_start, r.col_stop) for r in seg.highlights] == [(250, 280, 26, 36)]
-    # Without the core tests every patch past the 8 dB / 6 dB thresholds is a region.
-    plain = segment(image, config=SegmentationConfig(
-        smooth_samples=1, smooth_beams=1, min_shadow_core_px=0, min_highlight_core_px=0))
-    assert len(plain.shadows) == 3 and len(plain.highlights) == 2
-    # A deep spot smaller than min_shadow_core_px does not make a shadow.
-    strict = segment(image, config=SegmentationConfig(smooth_samples=1, smooth_beams=1, min_shadow_core_px=41))
-    assert [(r.col_start, r.col_stop) for r in strict.shadows] == [(26, 36)]
+    # Known answer on a hand-made display image, 1 mm samples, grid = image (1 mm step, no
+    # beam smoothing): seabed at level 120 with Gaussian texture of 3 levels (the frame's
+    # spread); noise-free patches 4 spreads below it (texture-like: shadow, no core), 20
+    # below (a cast shadow), 4 below with a deep spot of 80 px (60 mm of core over its
+    # beams: enough) and one of 40 px (not), 4 and 20 spreads above it.
+    rng = np.random.default_rng(1)
+    image = np.clip(np.round(rng.normal(120, 3, (400, 80))), 0, 255).astype(np.uint8)
+    # (One patch per range, so that no row is mostly patches.)
+    image[20:60, 4:14] = 108  # texture-like dark patch
+    image[80:120, 20:30] = 60  # cast shadow
+    image[140:180, 36:46] = 108
+    image[156:164, 38:48] = 60  # ... with a deep spot of 80 px
+    image[200:240, 52:62] = 108
+    image[218:222, 54:64] = 60  # ... with a deep spot of 40 px
+    image[260:290, 4:14] = 132  # bright patch
+    image[320:350, 20:30] = 180  # target echo
+    config = SegmentationConfig(grid_step_m=0.001, max_grid_rows=400, smooth_beams=1, shadow_weak_sigmas=3.0)
+    seg = segment(image, range_m=np.arange(400) * 0.001, config=config)
+    assert seg.sigma == pytest.approx(3.0, rel=0.15)
+    def boxes(regions):  # (a speckle pixel beside a patch may join it: one column of play)
+        return sorted((r.col_start, r.col_stop) for r in regions if r.n_cols > 3)
+
+    shadows = boxes(seg.shadows)
+    assert len(shadows) == 2
+    assert np.abs(np.array(shadows) - np.array([(20, 30), (36, 48)])).max() <= 1
+    (highlight,) = boxes(seg.highlights)
+    assert np.abs(np.array(highlight) - np.array((20, 30))).max() <= 1
+    # Without the core tests every patch past the thresholds is a region.
+    plain = segment(image, range_m=np.arange(400) * 0.001, config=SegmentationConfig(
+        grid_step_m=0.001, max_grid_rows=400, smooth_beams=1, shadow_weak_sigmas=3.0, min_shadow_core_m=0.0,
+        min_highlight_core_m=0.0))
+    assert len(boxes(plain.shadows)) == 4 and len(boxes(plain.highlights)) == 2
 
 
 @pytest.mark.parametrize("texture_db", [3.0, 4.0])
@@ -113,11 +126,11 @@ def test_targets_on_a_textured_seabed_are_measured(texture_db: float) -> None:
 
 
 def test_core_settings_are_validated() -> None:
-    with pytest.raises(ValueError, match="shadow_core_db"):
-        SegmentationConfig(shadow_db=10.0, shadow_core_db=8.0)
-    with pytest.raises(ValueError, match="highlight_core_db"):
-        SegmentationConfig(highlight_core_db=3.0)
-    with pytest.raises(ValueError, match="min_shadow_core_px"):
-        SegmentationConfig(min_shadow_core_px=-1)
-    with pytest.raises(ValueError, match="min_highlight_core_px"):
-        SegmentationConfig(min_highlight_core_px=-1)
+    with pytest.raises(ValueError, match="shadow_core_sigmas"):
+        SegmentationConfig(shadow_sigmas=6.0, shadow_core_sigmas=5.0)
+    with pytest.raises(ValueError, match="highlight_core_sigmas"):
+        SegmentationConfig(highlight_core_sigmas=2.0)
+    with pytest.raises(ValueError, match="min_shadow_core_m"):
+        SegmentationConfig(min_shadow_core_m=-1.0)
+    with pytest.raises(ValueError, match="min_highlight_core_m"):
+        SegmentationConfig(min_highlight_core_m=-1.0)

@@ -90,9 +90,16 @@ def test_target_in_one_frame_has_null_height_and_reason(
     save_frame(tmp_path / "b.npz", frame)
     code, out, _ = _run([a, str(tmp_path / "b.npz"), "--json", "-"], capsys)
     assert code == 0
-    lonely = [t for t in json.loads(out)["targets"] if t["height_m"] is None]
+    targets = json.loads(out)["targets"]
+    lonely = [t for t in targets if t["height_m"] is None]
     assert len(lonely) == 1
-    assert lonely[0]["height_std_m"] is None and "1 frame" in lonely[0]["reason"]
+    (t,) = lonely
+    assert t["height_std_m"] is None
+    # Placed all the same, and the reason names the frame that lacks it and why.
+    assert isinstance(t["azimuth_deg"], float) and isinstance(t["range_m"], float)
+    assert "seen in 1" in t["reason"] and "b.npz: not found there" in t["reason"]
+    for target in targets:
+        assert isinstance(target["azimuth_deg"], float) and isinstance(target["range_m"], float)
 
 
 def test_no_targets_is_success_with_an_empty_list(
@@ -125,11 +132,6 @@ def test_bad_input_exits_2_naming_the_file(
     bare = [_write(tmp_path, rng, f"bare{i}.npz", h, altitude_m=math.nan) for i, h in enumerate((0.5, 0.6))]
     code, _, err = _run(bare, capsys)
     assert code == 2 and "no altitude information" in err and bare[0] in err
-
-    frame, _, _ = render(SynthConfig(boxes=BOXES, n_samples=600, tilt_deg=25.0), rng=rng)
-    other = str(save_frame(tmp_path / "other.npz", frame))
-    code, _, err = _run([a, other], capsys)
-    assert code == 2 and other in err and "geometry" in err
 
     code, _, err = _run([a, b, same, "--delta-h", "0.1"], capsys)
     assert code == 2 and "exactly two frames" in err
@@ -172,3 +174,20 @@ def test_aris_recording_from_the_simulator(tmp_path: Path, capsys: pytest.Captur
     assert code == 0, err
     (target,) = json.loads(out)["targets"]
     assert target["height_m"] == pytest.approx(0.039, abs=0.002)
+
+
+def test_frames_of_different_windows_samples_and_dtypes(
+    tmp_path: Path, rng: np.random.Generator, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # One scene from two altitudes: 800 uint8 samples over 0.9-2.6 m, then 1300 samples of
+    # linear power (float32, 20 dB more gain) over 1.0-2.8 m. Ranges are in metres and
+    # levels in each frame's own spread: the heights are those of the plain pair.
+    a = _write(tmp_path, rng, "a.npz", 0.5)
+    frame, _, _ = render(SynthConfig(boxes=BOXES, altitude_m=0.6, tilt_deg=25.0, window_m=(1.0, 2.8),
+                                     n_samples=1300), rng=rng)
+    power = (100.0 * 10.0 ** (frame.image.astype(np.float64) * (80 / 255) / 10)).astype(np.float32)
+    b = str(save_frame(tmp_path / "b.npz", frame.with_fields(image=power)))
+    code, out, err = _run([a, b, "--json", "-"], capsys)
+    assert code == 0, err
+    by_azimuth = sorted(json.loads(out)["targets"], key=lambda t: t["azimuth_deg"])
+    assert [t["height_m"] for t in by_azimuth] == pytest.approx([0.039, 0.047], abs=0.002)
