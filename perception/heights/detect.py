@@ -21,6 +21,12 @@ from perception.shadows.segmentation.segment import segment
 from perception.sonar_io.frame import SonarFrame
 from perception.tracking.detection import Detection, seabed_centre, seabed_position
 
+#: A shadow that starts at the band's near edge without an echo before it is a target's
+#: (before the band) when the seabed after it stands this far above it, dB.
+NEAR_SHADOW_DEPTH_DB = 10.0
+#: ... and lies within this fraction of the half fan from its centre.
+NEAR_SHADOW_FAN_FRACTION = 0.6
+
 
 def detect_shadows(
     image: NDArray[np.generic],
@@ -45,14 +51,23 @@ def detect_shadows(
     -------
     tuple of ShadowMeasurement
         One per target, cut ones included (flagged). A shadow without an echo before it that
-        an edge of the band or window cuts is taken for that edge (the dark beyond the
-        aperture) and left out.
+        an edge of the band (other than the near one) or of the window cuts is taken for that
+        edge (the dark beyond the aperture) and left out.
     """
     cfg = config or HeightsConfig()
     seg = segment(image, range_m=range_m, config=cfg.segmentation)
     pairs = pair_regions(seg, config=cfg.pairing)
     found = measure_pairs(seg, pairs, range_m=range_m, beam_azimuth_rad=beam_azimuth_rad, config=cfg.measure)
-    return tuple(m for m in found if m.has_highlight or not m.truncated)
+    # A shadow without an echo before it, cut by an edge, is taken for that edge (the dark
+    # beyond it) -- unless cut by the band's near edge only, deep (NEAR_SHADOW_DEPTH_DB
+    # below the seabed after it) and away from the fan's sides (where the band's curved near
+    # edge is least sure and the aperture's own roll-off leaves dark stretches inside it):
+    # the cast shadow of a target before the band, itself not insonified, kept without a
+    # height (the mosaic leaves it out).
+    half_fan = float(np.max(np.abs(beam_azimuth_rad))) if len(beam_azimuth_rad) else 0.0
+    return tuple(m for m in found if m.has_highlight or not m.truncated
+                 or (m.cut_by == ("band_near",) and m.depth_db >= NEAR_SHADOW_DEPTH_DB
+                     and abs(m.azimuth_rad) <= NEAR_SHADOW_FAN_FRACTION * half_fan))
 
 
 def frame_detections(

@@ -78,8 +78,8 @@ class FrameEdges:
         Central beams looked at, beams ``good``, central beams without echo before the
         shadow, without seabed after it.
     echo_db, depth_db : ndarray, shape (n_pairs,)
-        Mean over the good beams of the echo before the shadow's start over the shadow,
-        and of the seabed after its end over the shadow, dB (NaN without a good beam).
+        Mean over the central beams holding the shadow of the echo before its start over it,
+        and of the seabed after its end over it, dB (NaN where none was read).
     """
 
     beams: NDArray[np.intp]
@@ -293,8 +293,8 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     near_ok = good & use_near & np.isfinite(rough_near)
     near_rows = np.where(near_ok, rough_near + lo, nan)
     n_good = np.bincount(owner, weights=good, minlength=n_pairs)
-    finite_echo = good & np.isfinite(echo_db)
-    finite_depth = good & np.isfinite(depth_db)
+    finite_echo = present & np.isfinite(echo_db)
+    finite_depth = present & np.isfinite(depth_db)
     with np.errstate(invalid="ignore", divide="ignore"):
         echo = (np.bincount(owner, weights=np.where(finite_echo, echo_db, 0.0), minlength=n_pairs)
                 / np.bincount(owner, weights=finite_echo, minlength=n_pairs))

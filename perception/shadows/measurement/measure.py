@@ -101,6 +101,8 @@ class ShadowMeasurement:
     echo_db, depth_db : float
         Echo before the shadow's start over the shadow, seabed after its end over the
         shadow, dB (NaN when not measured).
+    cut_by : tuple of str
+        The edges that cut it (keys of :data:`TRUNCATION_REASONS`); empty when none does.
     """
 
     azimuth_rad: float
@@ -121,6 +123,7 @@ class ShadowMeasurement:
     has_highlight: bool = True
     echo_db: float = math.nan
     depth_db: float = math.nan
+    cut_by: tuple[str, ...] = ()
 
     @property
     def usable(self) -> bool:
@@ -141,12 +144,12 @@ def measure_pair(
                          config=config)[0]
 
 
-def _cuts(pair: Pair, edges: FrameEdges, n: int, segmentation: Segmentation) -> list[str]:
-    """Reasons (sentences) that cut the measurement of pair ``n``, from its flags and its beams
-    (where the insonified band runs to the window's last grid step, a shadow cut at the
-    band's far edge runs to the window's end)."""
-    reasons = [TRUNCATION_REASONS[f] for f in pair.fov_flags if f in _CUTTING_FLAGS and f != "band_far"
-               and f != "band_near"]
+def _cuts(pair: Pair, edges: FrameEdges, n: int, segmentation: Segmentation) -> list[tuple[str, str]]:
+    """What cuts the measurement of pair ``n``: (flag, sentence) pairs, from its flags and its
+    beams (where the insonified band runs to the window's last grid step, a shadow cut at
+    the band's far edge runs to the window's end)."""
+    reasons = [(f, TRUNCATION_REASONS[f]) for f in pair.fov_flags
+               if f in _CUTTING_FLAGS and f not in ("band_far", "band_near")]
     central = int(edges.n_central[n])
     cut_far, cut_near = int(edges.cut_far[n]), int(edges.cut_near[n])
     if central and 2 * cut_far > central:
@@ -154,9 +157,9 @@ def _cuts(pair: Pair, edges: FrameEdges, n: int, segmentation: Segmentation) -> 
         band_end = int(np.max(segmentation.band_stop_rows[list(pair.columns)]))
         where = ("window_end" if pair.shadow.row_stop >= n_rows or band_end >= n_rows - 2 * segmentation.row_step
                  else "band_far")
-        reasons.append(f"{TRUNCATION_REASONS[where]}, in {cut_far} of its {central} central beams")
+        reasons.append((where, f"{TRUNCATION_REASONS[where]}, in {cut_far} of its {central} central beams"))
     if central and 2 * cut_near > central:
-        reasons.append(f"{TRUNCATION_REASONS['band_near']}, in {cut_near} of its {central} central beams")
+        reasons.append(("band_near", f"{TRUNCATION_REASONS['band_near']}, in {cut_near} of its {central} central beams"))
     return reasons
 
 
@@ -217,7 +220,9 @@ def measure_pairs(
     top_l, end_l, near_l, azimuth_l = top.tolist(), end.tolist(), near.tolist(), azimuth.tolist()
     out = []
     for n, pair in enumerate(pairs):
-        reasons = _cuts(pair, edges, n, segmentation)
+        cuts = _cuts(pair, edges, n, segmentation)
+        reasons = [sentence for _, sentence in cuts]
+        cut_by = tuple(flag for flag, _ in cuts)
         highlight_m = (float(range_m[pair.highlight.row_start]) if pair.highlight is not None
                        else float(range_m[min(pair.shadow.row_start, n_rows - 1)]))
         a, b = bounds[n], bounds[n + 1]
@@ -230,7 +235,7 @@ def measure_pairs(
                 r_end_m=math.nan, sigma_r_m=math.nan, highlight_range_m=highlight_m, columns=(),
                 r_top_per_beam_m=(), r_end_per_beam_m=(), truncated=True, reason="; ".join(reasons),
                 overlap=pair.overlap, shadow_width_beams=pair.shadow.n_cols,
-                has_highlight=pair.highlight is not None, echo_db=echo, depth_db=depth,
+                has_highlight=pair.highlight is not None, echo_db=echo, depth_db=depth, cut_by=cut_by,
             ))
             continue
         r_near = float(mean_near[n])
@@ -253,5 +258,6 @@ def measure_pairs(
             has_highlight=pair.highlight is not None,
             echo_db=echo,
             depth_db=depth,
+            cut_by=cut_by,
         ))
     return out

@@ -82,14 +82,6 @@ def as_levels(
     return db, 1.0
 
 
-def box_smooth(image: Levels, *, samples: int, beams: int) -> NDArray[np.float32]:
-    """Box mean over ``samples`` rows x ``beams`` columns (edges replicated), float32, new array."""
-    out = cv2.boxFilter(
-        image, cv2.CV_32F, (beams, samples), normalize=True, borderType=cv2.BORDER_REPLICATE
-    )
-    return np.asarray(out, dtype=np.float32)
-
-
 def block_levels(image: Levels, row_step: int, *, beams: int) -> NDArray[np.float32]:
     """Mean level of each block of ``row_step`` rows, averaged over ``beams`` beams (centred,
     edges replicated): the detection grid.
