@@ -1,5 +1,8 @@
 """Heights from rendered frames: segmentation IoU, height accuracy, recall, speed.
 
+(Over 400 lines: one benchmark section per scenario, each a few dozen lines writing its
+rows of ``benchmarks/README.md``; the model-family sweep is :mod:`benchmarks.bench_heights_models`.)
+
 All frames come from ``sim_harness``'s sonar renderer (ARIS 3000, 128 beams, speckle on)
 with its ground truth; perception sees only the frames.
 

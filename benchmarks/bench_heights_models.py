@@ -236,7 +236,8 @@ def aris_section() -> list[str]:
         for frame in recording:
             counts.append(len(detect_shadows(frame.image, range_m=frame.range_m,
                                              beam_azimuth_rad=frame.beam_azimuth_rad)))
-    return ["", "### Real ARIS recording (tests/data/aris/sample.aris, ARIS 1200 telephoto, 48 beams, no targets known)",
+    return ["", "### Real ARIS recording (tests/data/aris/sample.aris, ARIS 1200 telephoto, 48 beams, "
+            "no targets known)",
             "", f"Detections per frame: {counts} (mean {np.mean(counts):.2f} false per frame); no frame has a height "
             "(no altitude information: `heights` refuses with exit 2, the pipeline reports no height)."]
 

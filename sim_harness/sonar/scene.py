@@ -1,5 +1,8 @@
 """Scene files: a seabed world, a default viewpoint and sonar window, as TOML or JSON.
 
+(Over 400 lines: the one parser of the scene format, its helpers sharing the key-naming
+context ``_Ctx``; the format's documentation is this docstring.)
+
 A scene is a file (``.toml`` or ``.json``, same keys) or the name of a scene shipped with
 the package (:func:`builtin_scenes`: ``paper-tank``, ``open-seabed``). Keys (metres and
 degrees at this edge; radians inside):

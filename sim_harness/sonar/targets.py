@@ -1,5 +1,8 @@
 """Targets in a sonar frame: ray casts, their occlusion runs, echo, hidden seabed and truth.
 
+(Over 400 lines: one data flow -- casts, batch, runs, echo, hidden seabed, truth -- on the
+shared :class:`RayBatch` and :class:`Runs`; split, each step would import the others' types.)
+
 Pure functions used by :class:`sim_harness.sonar.renderer.SonarRenderer`; geometry and conventions
 in :mod:`sim_harness.sonar.geometry`. Images are (n_samples, n_beams); "flat" image indices
 are ``row * n_beams + column``.

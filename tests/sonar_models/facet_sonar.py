@@ -1,3 +1,5 @@
+# Kept in one file (over 400 lines): an independently written forward model, copied as written
+# (see README.md here); splitting it would make it ours.
 """facet_sonar: an independent forward model of a forward-looking imaging sonar.
 
 ARIS Explorer 3000 class acoustic camera over a flat (optionally slightly sloped) seabed

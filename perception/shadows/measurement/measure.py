@@ -159,7 +159,8 @@ def _cuts(pair: Pair, edges: FrameEdges, n: int, segmentation: Segmentation) -> 
                  else "band_far")
         reasons.append((where, f"{TRUNCATION_REASONS[where]}, in {cut_far} of its {central} central beams"))
     if central and 2 * cut_near > central:
-        reasons.append(("band_near", f"{TRUNCATION_REASONS['band_near']}, in {cut_near} of its {central} central beams"))
+        sentence = f"{TRUNCATION_REASONS['band_near']}, in {cut_near} of its {central} central beams"
+        reasons.append(("band_near", sentence))
     return reasons
 
 
