@@ -7,6 +7,11 @@ Frames (.npz, or .aris) must carry their pose (``north_m``, ``east_m``, ``headin
 frames are mosaicked (drift registration on unless ``--no-registration``), their shadows
 measured and tracked into target heights, and the map written: ``mosaic.tif``,
 ``mosaic.png`` with world file, ``targets.geojson``, ``mosaic_heights.png``.
+
+Frames may differ in range window, sample count and spacing, gain and dtype: each is placed
+by its own range axis, heights are measured on the frames as they are, and frames that are
+not uint8 display levels are blended as display levels with their seabed at the level of
+the recording's uint8 frames (:func:`perception.sonar_io.display.as_display`).
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from perception.mapping.heights_layer import MappedTarget
 from perception.mapping.mosaic import MosaicConfig
 from perception.mapping.products import map_raster, write_geotiff, write_png_with_world_file, write_targets_geojson
 from perception.mapping.registration import RegistrationConfig
+from perception.sonar_io.display import DEFAULT_SEABED_LEVEL, as_display, seabed_display_level
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.readers import open_recording
 from planner.errors import UsageError
@@ -106,6 +112,7 @@ def run(args: argparse.Namespace) -> int:
     heights = HeightPipeline(HeightsConfig(shared_altitude=False))
     recordings = [open_recording(p) for p in args.frames]
     total = sum(len(r) for r in recordings)
+    seabed_level: float | None = None  # of the uint8 frames, once one is seen
     with tqdm(total=total, unit="frame", desc="mosaic", mininterval=1.0) as bar:
         for path, recording in zip(args.frames, recordings, strict=True):
             for frame in recording:
@@ -116,13 +123,16 @@ def run(args: argparse.Namespace) -> int:
                         raise UsageError(f"{path}: frame at t={frame.timestamp_s:.3f} s has no {name}; "
                                          "give the pose in the frames or with --nav")
                 result = heights.add_frame(frame)
+                if frame.image.dtype == np.uint8 and seabed_level is None:
+                    seabed_level = seabed_display_level(frame.image)
+                shown = as_display(frame, seabed_level=DEFAULT_SEABED_LEVEL if seabed_level is None else seabed_level)
                 shadow = unreliable = None
                 if result.measurements:
                     # Measured shadows stay out of the blend, target echoes out of registration.
                     masks = masks_from_shadows(result.measurements, range_m=frame.range_m, n_beams=frame.n_beams,
-                                               beam_azimuth_rad=frame.beam_azimuth_rad, image=frame.image)
+                                               beam_azimuth_rad=frame.beam_azimuth_rad, image=shown.image)
                     shadow, unreliable = masks.shadow, masks.target
-                builder.add_frame(frame, exclude_mask=shadow, unreliable_mask=unreliable)
+                builder.add_frame(shown, exclude_mask=shadow, unreliable_mask=unreliable)
                 bar.update(1)
     targets = [MappedTarget(t.target_id, t.north_m, t.east_m,
                             math.nan if t.height_m is None else t.height_m,

@@ -57,3 +57,27 @@ def test_bad_nav_is_named(tank_frames, tmp_path, capsys):
     nav.write_text("t_s,north_m\n0,1\n1,2\n")
     assert main(["mosaic", str(tank_frames[0]), "--nav", str(nav), "--out", str(tmp_path / "x")]) == 2
     assert "lacks columns" in capsys.readouterr().err
+
+
+def test_frames_of_other_windows_and_dtypes_blend(tank_frames, tmp_path):
+    # The second altitude's frames as float32 linear power (40 dB more gain) over a shorter
+    # window (the first 100 samples cut): placed by their own range axes, blended at the
+    # uint8 frames' seabed level, their targets measured all the same.
+    mixed = []
+    for k, path in enumerate(tank_frames):
+        (frame,) = load_frames(path)
+        if k >= len(tank_frames) // 2:
+            power = 1e4 * 10.0 ** (frame.image[100:].astype(np.float64) * (80 / 255) / 10)
+            frame = frame.with_fields(image=power.astype(np.float32), range_m=frame.range_m[100:])
+        mixed.append(save_frame(tmp_path / f"mixed_{k}.npz", frame))
+    plain_dir, mixed_dir = tmp_path / "plain", tmp_path / "mixed"
+    assert main(["mosaic", *map(str, tank_frames), "--out", str(plain_dir), "--origin", "43.3,5.37"]) == 0
+    assert main(["mosaic", *map(str, mixed), "--out", str(mixed_dir), "--origin", "43.3,5.37"]) == 0
+    with rasterio.open(plain_dir / "mosaic.tif") as a, rasterio.open(mixed_dir / "mosaic.tif") as b:
+        plain, blended = a.read(1), b.read(1)
+    seabed = lambda img: float(np.nanmedian(img[np.isfinite(img) & (img > 0)]))  # noqa: E731
+    assert seabed(blended) == pytest.approx(seabed(plain), rel=0.1)
+    doc = json.loads((mixed_dir / "targets.geojson").read_text())
+    solved = sorted(round(f["properties"]["height_m"] * 100) for f in doc["features"]
+                    if f["properties"]["height_m"] is not None)
+    assert solved == [3, 3, 3, 4, 5]
