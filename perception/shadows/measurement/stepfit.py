@@ -55,6 +55,12 @@ COARSE_REACH_SAMPLES = 3.0
 FINE_STEP_SAMPLES = 0.1
 FINE_REACH_SAMPLES = 0.8
 FINE_REWEIGHTS = 1
+#: Gauss-Newton steps after the banks, their damping (added to the diagonal, as a fraction)
+#: and their largest steps.
+GN_ITERATIONS = 2
+DAMPING = 0.01
+MAX_EDGE_STEP_SAMPLES = 0.5
+MAX_LOG_BLUR_STEP = 0.35
 _SQRT_2PI = math.sqrt(2.0 * math.pi)
 
 
@@ -95,6 +101,7 @@ class _Bank:
     offsets: FloatArray
     blurs: FloatArray
     n_blurs: int
+    blur_ratio: float
 
 
 @functools.lru_cache(maxsize=32)
@@ -108,7 +115,8 @@ def _bank(m: int, centre: float, reach: float, step: float, n_blurs: int, widest
     t2 = t * t
     for array in (t, t2, off, blur):
         array.flags.writeable = False
-    return _Bank(t=t, t2=t2, offsets=off, blurs=blur, n_blurs=n_blurs)
+    ratio = float(blurs[1] / blurs[0]) if n_blurs > 1 else 1.0
+    return _Bank(t=t, t2=t2, offsets=off, blurs=blur, n_blurs=n_blurs, blur_ratio=ratio)
 
 
 @dataclass(frozen=True)
@@ -147,6 +155,18 @@ def _search(y: FloatArray, w: FloatArray, bank: _Bank, sign: FloatArray) -> _Sea
     return _Search(best=best, a=a, b=b, score=score)
 
 
+def _levels(phi: FloatArray, y: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Weighted least-squares ``a, b`` of ``y = a + b phi`` per profile (rows)."""
+    wp = w * phi
+    sw, sp, spp = np.add.reduce(w, axis=1), np.add.reduce(wp, axis=1), np.add.reduce(wp * phi, axis=1)
+    sy, spy = np.add.reduce(w * y, axis=1), np.add.reduce(wp * y, axis=1)
+    det = sw * spp - sp * sp
+    det = np.where(np.abs(det) > 1e-12 * np.maximum(sw * spp, 1e-300), det, np.nan)
+    b = (sw * spy - sp * sy) / det
+    a = (sy - b * sp) / np.maximum(sw, 1e-300)
+    return a, b
+
+
 def _gamma_weights(w: FloatArray, a: FloatArray, b: FloatArray, phi: FloatArray) -> FloatArray:
     """``w / mean^2`` of the model ``a + b phi`` (levels (n,), phi (n, m)), the mean floored."""
     floor = FLOOR_FRACTION * np.maximum(np.abs(a), np.abs(a + b)) + 1e-300
@@ -154,13 +174,36 @@ def _gamma_weights(w: FloatArray, a: FloatArray, b: FloatArray, phi: FloatArray)
     return w / (mean * mean)
 
 
-def _vertex(sm: FloatArray, s0: FloatArray, sp: FloatArray, inner: NDArray[np.bool_]) -> FloatArray:
-    """Vertex of the parabola through three equally spaced scores (a maximum), in steps from
-    the middle one (within half a step; 0 at the bank's edges or where they do not curve)."""
-    curvature = sm - 2.0 * s0 + sp
-    inner = inner & (curvature < 0)
-    step = 0.5 * (sm - sp) / np.where(inner, curvature, -1.0)
-    return np.clip(np.where(inner, step, 0.0), -0.5, 0.5)
+def _vertex_2d(cube: FloatArray, rows: NDArray[np.intp], j: NDArray[np.intp],
+               k: NDArray[np.intp]) -> tuple[FloatArray, FloatArray]:
+    """Vertex of the quadratic through each profile's 3 x 3 scores about its best ``(j, k)``
+    (edge step, blur step) of ``cube`` (n, n_edges, n_blurs), in steps (within one; 0 along a
+    direction at the bank's edge or where the scores do not curve down). Jointly, not one
+    direction at a time: with a blur between the bank's, the weighted scores' ridge runs
+    oblique, and the best edge at the nearest blur is off the vertex."""
+    n_j, n_k = cube.shape[1], cube.shape[2]
+    jm, jp = np.maximum(j - 1, 0), np.minimum(j + 1, n_j - 1)
+    km, kp = np.maximum(k - 1, 0), np.minimum(k + 1, n_k - 1)
+    f0 = cube[rows, j, k]
+    gj = 0.5 * (cube[rows, jp, k] - cube[rows, jm, k])
+    gk = 0.5 * (cube[rows, j, kp] - cube[rows, j, km])
+    hjj = cube[rows, jp, k] - 2.0 * f0 + cube[rows, jm, k]
+    hkk = cube[rows, j, kp] - 2.0 * f0 + cube[rows, j, km]
+    hjk = 0.25 * (cube[rows, jp, kp] - cube[rows, jp, km] - cube[rows, jm, kp] + cube[rows, jm, km])
+    inner_j = (j > 0) & (j < n_j - 1)
+    inner_k = (k > 0) & (k < n_k - 1)
+    hjk = np.where(inner_j & inner_k, hjk, 0.0)
+    det = hjj * hkk - hjk * hjk
+    joint = inner_j & inner_k & (hjj < 0) & (det > 0)
+    safe = np.where(joint, det, 1.0)
+    du_joint = -(hkk * gj - hjk * gk) / safe
+    dv_joint = -(hjj * gk - hjk * gj) / safe
+    # Alone where the other direction is at the bank's edge.
+    du_alone = np.where(inner_j & (hjj < 0), -gj / np.where(hjj < 0, hjj, -1.0), 0.0)
+    dv_alone = np.where(inner_k & (hkk < 0), -gk / np.where(hkk < 0, hkk, -1.0), 0.0)
+    du = np.clip(np.where(joint, du_joint, du_alone), -1.0, 1.0)
+    dv = np.clip(np.where(joint, dv_joint, dv_alone), -1.0, 1.0)
+    return du, dv
 
 
 def fit_steps(
@@ -222,19 +265,48 @@ def fit_steps(
     n_off = fine.offsets.size // n_blurs
     j, k = np.divmod(found.best, n_blurs)
     cube = found.score.reshape(n, n_off, n_blurs)
-    step = _vertex(cube[rows, np.maximum(j - 1, 0), k], cube[rows, j, k], cube[rows, np.minimum(j + 1, n_off - 1), k],
-                   (j > 0) & (j < n_off - 1))
-    x0 = float(edge0) + shift + fine.offsets[found.best] + step * FINE_STEP_SAMPLES
-    blur = fine.blurs[found.best]
+    du, dv = _vertex_2d(cube, rows, j, k)
+    x0 = float(edge0) + shift + fine.offsets[found.best] + du * FINE_STEP_SAMPLES
+    blur = fine.blurs[found.best] * fine.blur_ratio**dv
     a, b = found.a, found.b
-    # The edge's 1-sigma from the weighted residuals and the edge's Jacobian.
-    z = (x0[:, None] - np.arange(m)[None, :]) / blur[:, None]
-    phi = ndtr(z)
-    r = y - (a[:, None] + b[:, None] * phi)
-    wt = _gamma_weights(w, a, b, phi)
-    j0 = (b / blur)[:, None] * np.exp(-0.5 * z * z) * (1.0 / _SQRT_2PI)
+    # Gauss-Newton in (x0, log s) from the bank's vertex, each step weighted by the model so
+    # far and the levels at their least squares (variable projection: their own derivatives
+    # are orthogonal to the residual to first order): the bank's steps (edge, blur) leave a
+    # bias where the weighted cost's ridge runs oblique; a continuous step takes it out.
+    x = np.arange(m, dtype=np.float64)[None, :]
+    log_s = np.log(blur)
+    phi = ndtr((x0[:, None] - x) / blur[:, None])
+    for it in range(GN_ITERATIONS + 1):
+        wt = _gamma_weights(w, a, b, phi)
+        s_now = np.exp(log_s)
+        z = (x0[:, None] - x) / s_now[:, None]
+        phi = ndtr(z)
+        a, b = _levels(phi, y, wt)
+        r = y - (a[:, None] + b[:, None] * phi)
+        dens = np.exp(-0.5 * z * z) * (1.0 / _SQRT_2PI)
+        j0 = (b / s_now)[:, None] * dens
+        j1 = -b[:, None] * dens * z
+        if it == GN_ITERATIONS:
+            break  # the last pass only gives the edge's 1-sigma
+        wj0, wj1 = wt * j0, wt * j1
+        g0, g1 = np.add.reduce(wj0 * r, axis=1), np.add.reduce(wj1 * r, axis=1)
+        h00 = np.add.reduce(wj0 * j0, axis=1) * (1.0 + DAMPING)
+        h01 = np.add.reduce(wj0 * j1, axis=1)
+        h11 = np.add.reduce(wj1 * j1, axis=1) * (1.0 + DAMPING)
+        det = h00 * h11 - h01 * h01
+        det = np.where(det > 0, det, np.inf)
+        x0 = np.clip(x0 + np.clip((h11 * g0 - h01 * g1) / det, -MAX_EDGE_STEP_SAMPLES, MAX_EDGE_STEP_SAMPLES),
+                     first, last)
+        log_s = np.clip(log_s + np.clip((h00 * g1 - h01 * g0) / det, -MAX_LOG_BLUR_STEP, MAX_LOG_BLUR_STEP),
+                        math.log(MIN_BLUR_SAMPLES), math.log(widest))
+    blur = np.exp(log_s)
+    # The edge's 1-sigma from the weighted residuals and the Jacobian of all four parameters
+    # (levels, edge, blur): the levels' errors move the fitted edge too.
     var_res = np.add.reduce(wt * r * r, axis=1) / np.maximum(np.add.reduce(w, axis=1) - 4.0, 1.0)
-    h00 = np.add.reduce(wt * j0 * j0, axis=1) + 1e-300
+    jac = np.stack([np.ones_like(phi), phi, j0, j1], axis=1)  # (n, 4, m)
+    fisher = np.einsum("nim,njm->nij", jac * wt[:, None, :], jac)
+    fisher += np.eye(4)[None] * (1e-12 * np.trace(fisher, axis1=1, axis2=2)[:, None, None] + 1e-300)
+    h00 = 1.0 / np.linalg.inv(fisher)[:, 2, 2]
     edge_std = np.sqrt(var_res / h00)
     ok = (sign * b > 0) & np.isfinite(x0) & np.isfinite(edge_std) & (x0 > first) & (x0 < last)
     low = np.minimum(a, a + b) * scale

@@ -50,10 +50,11 @@ def test_noise_free_edges_anywhere(x0: float, y: float, height: float, altitude:
     if not truths[0].in_band:
         return
     errors = _errors_in_samples(frame, box, altitude)
-    # Beams near a box's corner average edges that differ across the beam; the target's
-    # combined (median) edges stay within a third of a sample.
-    assert np.abs(np.median(errors, axis=0)).max() < 0.3
-    assert np.percentile(np.abs(errors), 75) < 0.5
+    # The pair's beams share one fitted offset from their whole-sample alignment, so a beam's
+    # own edge is good to about half a sample (a beam crossing a corner of the box, worse);
+    # the beams' median edges stay within 0.4 of a sample.
+    assert np.abs(np.median(errors, axis=0)).max() < 0.4
+    assert np.percentile(np.abs(errors), 75) < 0.7
 
 
 def test_speckled_edges_are_unbiased_within_a_fraction_of_a_sample(
