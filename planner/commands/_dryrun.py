@@ -25,7 +25,7 @@ from perception.geometry import rot_x, rot_y
 from perception.mapping.georef import LocalOrigin
 from planner.config import Settings, load_settings
 from planner.errors import ConfigError
-from planner.mission.executor import DiveResult, ExecutorConfig, MissionExecutor, TiltController
+from planner.mission.executor import DiveResult, ExecutorConfig, MissionExecutor, TiltSource
 from planner.mission.onboard import OnboardConfig, OnboardPerception
 from planner.mission.products import summary_document, write_products
 from planner.mission.run_folder import RunFolder
@@ -229,7 +229,7 @@ def _executor_config(scenario: Scenario, settings: Settings) -> ExecutorConfig:
         raise ConfigError(f"unknown executor setting: {exc}", key="executor") from exc
 
 
-def make_tilt_controller(plan: SurveyPlan, settings: Settings, *, closed_loop: bool) -> TiltController:
+def make_tilt_controller(plan: SurveyPlan, settings: Settings, *, closed_loop: bool) -> TiltSource:
     """The pitch loop (closed on the sonar) or, for the comparison, the fixed tilt that
     centres the same tracking zone (:class:`planner.pitch.control.ZoneCentredTilt`)."""
     from planner.pitch.control import ShadowPitchLoop, ZoneCentredTilt  # the casadi MPC, built once
@@ -431,7 +431,7 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
     The shadow-in-view ratio counts, over the frames of the survey passes, the targets
     *within range*: the whole shadow inside the range window, the target inside the fan
     (not on its first or last beam), its centre inside the *tracking zone* at that frame's
-    true altitude (:func:`planner.pitch.loop.tracking_zone_start_m`, the very function the
+    true altitude (:func:`planner.pitch.aperture.tracking_zone_start_m`, the very function the
     pitch loop serves targets by, with the loop's own settings: at least
     ``min_ground_range_over_altitude`` altitudes ahead, and near enough to the window's
     end that one tilt holds every shadow in the zone with the loop's margins), and some
@@ -544,7 +544,7 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
         "tracking_zone": zone_doc,
         "shadow_in_fov_definition": (
             "whole shadow in window and fan, target centre inside the tracking zone at the frame's true altitude "
-            "(planner.pitch.loop.tracking_zone_start_m with the loop's settings: from max("
+            "(planner.pitch.aperture.tracking_zone_start_m with the loop's settings: from max("
             f"{zone_config.min_ground_range_over_altitude} altitudes, the range at which the zone to the window's "
             "end spans the aperture less the loop's margin at both edges, for the tallest expected target) to the "
             f"window's end), {FOV_SETTLE_S} s settling excluded, some tilt within the mount's limits shows it "

@@ -64,7 +64,7 @@ class SonarSource(Protocol):
     def poll(self, now_s: float) -> list[Any]: ...
 
 
-class TiltController(Protocol):
+class TiltSource(Protocol):
     """Chooses the mount tilt each control step (the pitch loop, or a fixed tilt)."""
 
     def tilt_command(self, *, now_s: float, pass_: SurveyPass, onboard: OnboardPerception,
@@ -77,7 +77,7 @@ class TiltController(Protocol):
         ...
 
 
-class FixedTilt:
+class PlanTilt:
     """Holds the plan's tilt for the pass (the baseline the pitch loop is compared with)."""
 
     def tracking_zone(self, pass_: SurveyPass) -> dict[str, float] | None:
@@ -208,8 +208,8 @@ class MissionExecutor:
     clock : Clock
         The same clock the client was given.
     onboard : OnboardPerception
-    tilt : TiltController, optional
-        The pitch loop; a :class:`FixedTilt` by default.
+    tilt : TiltSource, optional
+        The pitch loop; a :class:`PlanTilt` by default.
     on_cycle : callable, optional
         Called at the end of every control cycle with the executor (progress bars,
         tests).
@@ -217,7 +217,7 @@ class MissionExecutor:
 
     def __init__(self, client: Any, sonar: SonarSource | None, plan: SurveyPlan, config: ExecutorConfig,
                  run: RunFolder, clock: Clock, onboard: OnboardPerception, *,
-                 tilt: TiltController | None = None,
+                 tilt: TiltSource | None = None,
                  on_cycle: Callable[[MissionExecutor], None] | None = None):
         self.client = client
         self.sonar = sonar
@@ -226,7 +226,7 @@ class MissionExecutor:
         self.run = run
         self.clock = clock
         self.onboard = onboard
-        self.tilt = tilt or FixedTilt()
+        self.tilt = tilt or PlanTilt()
         self.on_cycle = on_cycle
         self.result = DiveResult()
         self._link_lost = threading.Event()

@@ -2,17 +2,17 @@
 
 Each control step the shadows measured in the newest frame (slant ranges from range
 zero, beam azimuth, the frame's altitude, tilt and pitch) become the loop's target model
-(:func:`planner.pitch.loop.shadow_from_measurement`). A shadow cut by an edge of the
+(:func:`planner.pitch.measurements.shadow_from_measurement`). A shadow cut by an edge of the
 field of view (truncated: no height from it) still places its target: its shadow is at
 least as long as seen (and as long as the track's height or the site's smallest height
 make it), so the beam moves toward the cut edge and the next frame shows more; this is
 how a target entering at the far end of the window or the side of the fan is picked up
 before the tracker has a height for it. Targets already mapped with a
 height that lie ahead but are not in the newest frame are fed forward from their seabed
-positions (:func:`planner.pitch.loop.shadow_from_ned`), so the beam is ready for them
+positions (:func:`planner.pitch.measurements.shadow_from_ned`), so the beam is ready for them
 before they appear, and targets seen in the last ``memory_frames`` frames but lost in the
 newest one (a shadow slipping out of the band) stay served from their last position.
-The MPC (:class:`planner.pitch.loop.PitchLoop`) is built once per
+The MPC (:class:`planner.pitch.qp.PitchLoop`) is built once per
 pass, with the pass's planned tilt as the nominal (it keeps the mosaic's coverage), the
 site's tallest and smallest expected target heights as the height priors of targets not
 measured yet, and the search band on (``search_weight_factor``): with no tracked target
@@ -26,20 +26,14 @@ import math
 from collections import deque
 from dataclasses import replace
 
+from benchmarks.pitch_kinematics import nominal_tilt_for
 from perception.heights.pipeline import TargetHeight
 from planner.config import Settings
 from planner.mission.onboard import OnboardPerception
-from planner.pitch.loop import (
-    MountLimits,
-    PitchCommand,
-    PitchLoop,
-    PitchLoopConfig,
-    PitchState,
-    TrackedShadow,
-    nominal_tilt_for,
-    shadow_from_measurement,
-    shadow_from_ned,
-)
+from planner.pitch.config import MountLimits, PitchLoopConfig
+from planner.pitch.measurements import shadow_from_measurement, shadow_from_ned
+from planner.pitch.qp import PitchLoop
+from planner.pitch.types import PitchCommand, PitchState, TrackedShadow
 from planner.survey.plan import SurveyPass, SurveyPlan
 
 #: The mount the executor assumes (ArduSub's MNT1_PITCH limits and a typical servo rate).
@@ -47,7 +41,7 @@ DEFAULT_MOUNT = MountLimits(min_tilt_rad=0.0, max_tilt_rad=math.radians(80.0), m
 
 
 class ShadowPitchLoop:
-    """Adapter from on-board perception to :class:`~planner.pitch.loop.PitchLoop`.
+    """Adapter from on-board perception to :class:`~planner.pitch.qp.PitchLoop`.
 
     Parameters
     ----------
@@ -289,7 +283,7 @@ def describe_zone(config: PitchLoopConfig, altitude_m: float) -> dict[str, float
 
 class ZoneCentredTilt:
     """The fixed-tilt baseline over the same tracking zone: each pass holds the tilt that
-    centres the zone at its planned altitude (:func:`planner.pitch.loop.nominal_tilt_for`,
+    centres the zone at its planned altitude (:func:`benchmarks.pitch_kinematics.nominal_tilt_for`,
     level vehicle), so the comparison with the loop is over the same targets."""
 
     def __init__(self, plan: SurveyPlan, settings: Settings):

@@ -1,0 +1,32 @@
+"""The fixed-tilt baseline: the loop's interface, always the nominal tilt."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from planner.pitch.config import MountLimits, PitchLoopConfig
+from planner.pitch.selection import select_shadows, served_margins
+from planner.pitch.types import PitchCommand, PitchState, TrackedShadow
+
+
+class NominalTilt:
+    """The baseline: the same interface, always the nominal tilt (within the limits)."""
+
+    def __init__(self, config: PitchLoopConfig, limits: MountLimits):
+        self.config = config
+        self.limits = limits
+
+    def step(self, state: PitchState, shadows: Sequence[TrackedShadow]) -> PitchCommand:
+        """Return the nominal tilt, with the margins and drops it implies."""
+        cfg, lim = self.config, self.limits
+        target = lim.clip(cfg.nominal_tilt_rad)
+        step_max = lim.max_rate_rad_s * cfg.dt_s
+        t0 = lim.clip(state.current_tilt_rad)
+        tilt = min(max(target, t0 - step_max), t0 + step_max)
+        served, dropped, low, up, _, pred = select_shadows(state, shadows, cfg, lim, 0.0)
+        idx = [i for i, _ in served]
+        slack = float(np.sum(np.fmax(0.0, low[idx, 1] - tilt)) + np.sum(np.fmax(0.0, tilt - up[idx, 1])))
+        return PitchCommand(tilt, (target,) * cfg.horizon_steps, served_margins(pred, shadows, served, tilt, cfg),
+                            tuple(dropped), slack, True)
