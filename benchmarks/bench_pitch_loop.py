@@ -28,8 +28,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from benchmarks.pitch_kinematics import nominal_tilt_for, random_scenario, simulate_pass
-from planner.pitch.baseline import NominalTilt
+from benchmarks.pitch_kinematics import random_scenario, simulate_pass
+from planner.pitch.baseline import NominalTilt, nominal_tilt_for
 from planner.pitch.config import MountLimits, PitchLoopConfig
 from planner.pitch.qp import PitchLoop
 from planner.pitch.types import PitchCommand, PitchState, TrackedShadow

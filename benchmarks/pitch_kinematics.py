@@ -260,15 +260,6 @@ def simulate_pass(
                       joint, times >= sc.settle_s, failures, np.array(cmd_t))
 
 
-def nominal_tilt_for(altitude_m: float, config: PitchLoopConfig) -> float:
-    """A fixed tilt for an altitude: the beam axis midway, in depression, across the
-    tracking zone (from the far end of the range window to the zone's near edge,
-    :meth:`PitchLoopConfig.zone_start_m`), rad."""
-    far = math.sqrt(max(config.window_m[1] ** 2 - altitude_m**2, 1e-9))
-    near = float(config.zone_start_m(altitude_m))
-    return 0.5 * (math.atan2(altitude_m, far) + math.atan2(altitude_m, max(near, 1e-9)))
-
-
 def random_scenario(
     rng: np.random.Generator,
     *,

@@ -293,7 +293,7 @@ def run_dry_dive(
         if progress is not None:
             progress(now, planned_s, executor.result.state)
         if now - holder.get("products_s", now) > 60.0:
-            write_products(run, executor, origin)
+            write_products(run, executor.onboard, origin)
             holder["products_s"] = now
 
     def fly() -> None:
@@ -321,12 +321,12 @@ def run_dry_dive(
         raise RuntimeError("the executor thread ended without a result (see the log above)")
     result: DiveResult = holder["result"]
     executor = holder["executor"]
-    products = write_products(run, executor, origin, final=True,
+    products = write_products(run, executor.onboard, origin, final=True,
                               truth_points=tuple((t.north_m, t.east_m, t.height_m) for t in scene.world.targets))
     truth_extra = score_against_truth(run, sim, settings, result, products.targets,
                                       n_beams=renderer.config.n_beams, truth_targets=scene.world.targets,
                                       beam_azimuth_rad=renderer.config.beam_azimuth_rad, plan=plan)
-    summary = summary_document(result, executor, wall_s=time.perf_counter() - wall0,
+    summary = summary_document(result, executor.onboard, wall_s=time.perf_counter() - wall0,
                                extra={"scenario": scenario.name, **truth_extra})
     run.write_json("summary.json", summary)
     run.close()

@@ -108,8 +108,8 @@ def run(args: argparse.Namespace) -> int:
         result = executor.run_dive()
     finally:
         client.close()
-    write_products(run_folder, executor, origin, final=True)
-    summary = summary_document(result, executor, wall_s=time.perf_counter() - wall0)
+    write_products(run_folder, onboard, origin, final=True)
+    summary = summary_document(result, onboard, wall_s=time.perf_counter() - wall0)
     run_folder.write_json("summary.json", summary)
     run_folder.close()
     generate_report(Path(args.out))

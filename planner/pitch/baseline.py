@@ -1,7 +1,9 @@
-"""The fixed-tilt baseline: the loop's interface, always the nominal tilt."""
+"""The fixed-tilt baseline: the loop's interface, always the nominal tilt; and the tilt that
+centres the tracking zone (what a fixed tilt should be)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -30,3 +32,12 @@ class NominalTilt:
         slack = float(np.sum(np.fmax(0.0, low[idx, 1] - tilt)) + np.sum(np.fmax(0.0, tilt - up[idx, 1])))
         return PitchCommand(tilt, (target,) * cfg.horizon_steps, served_margins(pred, shadows, served, tilt, cfg),
                             tuple(dropped), slack, True)
+
+
+def nominal_tilt_for(altitude_m: float, config: PitchLoopConfig) -> float:
+    """A fixed tilt for an altitude: the beam axis midway, in depression, across the
+    tracking zone (from the far end of the range window to the zone's near edge,
+    :meth:`PitchLoopConfig.zone_start_m`), rad."""
+    far = math.sqrt(max(config.window_m[1] ** 2 - altitude_m**2, 1e-9))
+    near = float(config.zone_start_m(altitude_m))
+    return 0.5 * (math.atan2(altitude_m, far) + math.atan2(altitude_m, max(near, 1e-9)))

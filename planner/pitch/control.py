@@ -26,10 +26,11 @@ import math
 from collections import deque
 from dataclasses import replace
 
-from benchmarks.pitch_kinematics import nominal_tilt_for
 from perception.heights.pipeline import TargetHeight
+from perception.mapping.survey_map import SAME_TARGET_RADIUS_M
 from planner.config import Settings
 from planner.mission.onboard import OnboardPerception
+from planner.pitch.baseline import nominal_tilt_for
 from planner.pitch.config import MountLimits, PitchLoopConfig
 from planner.pitch.measurements import shadow_from_measurement, shadow_from_ned
 from planner.pitch.qp import PitchLoop
@@ -53,14 +54,13 @@ class ShadowPitchLoop:
 
     def __init__(self, plan: SurveyPlan, settings: Settings, *, mount: MountLimits = DEFAULT_MOUNT,
                  memory_frames: int = 30, search_weight_factor: float = 0.1, control_period_s: float = 0.2,
-                 horizon_s: float = 2.0, duplicate_radius_m: float = 0.15, motion_window_s: float = 0.4,
+                 horizon_s: float = 2.0, motion_window_s: float = 0.4,
                  accel_lead_m_s: float = 0.35, targets_refresh_s: float = 0.5, hold_start_s: float = 0.1):
         self.mount = mount
         self.targets_refresh_s = targets_refresh_s
         self._targets_cache: tuple[float, list[TargetHeight]] | None = None
         self.accel_lead_m_s = accel_lead_m_s
         self.motion_window_s = motion_window_s
-        self.duplicate_radius_m = duplicate_radius_m
         self.memory_frames = memory_frames
         self.height_min_m = min(settings.site.target_height_min_m, settings.site.target_height_max_m)
         self._loops: dict[str, PitchLoop] = {}
@@ -104,7 +104,7 @@ class ShadowPitchLoop:
         ``speed_m_s`` times the age of the frame or the navigation sample they come from)."""
         shadows: list[TrackedShadow] = []
         seen: set[int] = set()
-        result = onboard.last_frame_result
+        result = onboard.last_frame
         nav = onboard.nav
         if result is not None and nav is not None:
             heights = {t.target_id: t.height_m for t in self._tracked(onboard, now_s)} if any(
@@ -142,9 +142,9 @@ class ShadowPitchLoop:
                     continue
                 shadows.append(replace(seen_then, along_m=seen_then.along_m - speed_m_s * frame_age_s))
                 seen.add(target_id)
-        shadows = merge_pieces(shadows, radius_m=self.duplicate_radius_m)
+        shadows = merge_pieces(shadows, radius_m=SAME_TARGET_RADIUS_M)
         if nav is not None and math.isfinite(nav.north_m):
-            newest = onboard.heights.n_frames - 1
+            newest = onboard.frames_measured - 1
             nav_age_s = min(max(now_s - nav.time_s, 0.0), 1.0)
             # Tracks with a height first: of two tracks on one spot, the one that knows more stays.
             for t in sorted(self._tracked(onboard, now_s), key=lambda t: t.height_m is None):
@@ -161,7 +161,7 @@ class ShadowPitchLoop:
                 # A remembered track where a measured or another remembered shadow already is
                 # is a second track of that target (the tracker split it): it must not count twice.
                 if any(math.hypot(remembered.along_m - s.along_m, remembered.cross_m - s.cross_m)
-                       < self.duplicate_radius_m for s in shadows):
+                       < SAME_TARGET_RADIUS_M for s in shadows):
                     continue
                 shadows.append(remembered)
         return shadows
@@ -283,7 +283,7 @@ def describe_zone(config: PitchLoopConfig, altitude_m: float) -> dict[str, float
 
 class ZoneCentredTilt:
     """The fixed-tilt baseline over the same tracking zone: each pass holds the tilt that
-    centres the zone at its planned altitude (:func:`benchmarks.pitch_kinematics.nominal_tilt_for`,
+    centres the zone at its planned altitude (:func:`planner.pitch.baseline.nominal_tilt_for`,
     level vehicle), so the comparison with the loop is over the same targets."""
 
     def __init__(self, plan: SurveyPlan, settings: Settings):

@@ -14,7 +14,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from benchmarks.pitch_kinematics import (
-    nominal_tilt_for,
     random_scenario,
     simulate_pass,
     tilt_sign_changes,
@@ -32,7 +31,7 @@ from planner.pitch.aperture import (
     shadow_margins_rad,
     tracking_zone_start_m,
 )
-from planner.pitch.baseline import NominalTilt
+from planner.pitch.baseline import NominalTilt, nominal_tilt_for
 from planner.pitch.config import MountLimits, PitchLoopConfig
 from planner.pitch.control import (
     ShadowPitchLoop,
