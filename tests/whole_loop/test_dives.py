@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from planner.commands._dryrun import DryRun, load_scenario, run_dry_dive
+from planner.dryrun.dive import DryRun, run_dry_dive
+from planner.dryrun.scenario import load_scenario
 from sim_harness.faults import FaultConfig, TimeWindow
 from sim_harness.vehicle.dynamics import AttitudeDisturbance
 

@@ -21,7 +21,7 @@ from benchmarks.pitch_kinematics import (
 )
 from perception.errors import GeometryError, MeasurementError
 from perception.geometry import insonified_band, ray_angles_sonar, sonar_to_ned
-from planner.commands._dryrun import shadow_visible_at_tilts
+from planner.dryrun.shadow_view import shadow_visible_at_tilts
 from planner.errors import ConfigError
 from planner.pitch.aperture import (
     aperture_interval_rad,
