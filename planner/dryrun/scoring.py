@@ -96,7 +96,7 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
     track = _track_figures(run, sim, settings)
     frame_dt = _frame_period_s(sim)
     counts = {"zone_within": 0, "zone_inside": 0, "alt_within": 0, "alt_inside": 0, "alt_conflict": 0,
-              "all_within": 0, "all_inside": 0, "unshowable": 0}
+              "all_within": 0, "all_inside": 0, "unshowable": 0, "model_checked": 0, "model_agrees": 0}
     per_target: dict[str, dict[str, float]] = {}
     rows = []
     pass_starts = [t for t, state in result.states if state.startswith("PASS_")]
@@ -117,6 +117,13 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
                 beams_az = azimuths[np.asarray(tt.beams, dtype=int)]
                 visible = visible_tilts(tt, azimuths, tilt_grid, altitude_m=altitude, pitch_rad=pose.pitch_rad,
                                         roll_rad=pose.roll_rad, aperture_rad=aperture)
+                # The judge's geometry checked against the simulator's own flag at the true tilt.
+                here = shadow_visible_at_tilts(
+                    beams_az, np.asarray(tt.shadow_start_m), np.asarray(tt.shadow_end_m), altitude_m=altitude,
+                    pitch_rad=pose.pitch_rad, roll_rad=pose.roll_rad, tilt_rad=np.array([pose.tilt_rad]),
+                    elevation_aperture_rad=aperture)
+                counts["model_checked"] += 1
+                counts["model_agrees"] += int(bool(here[0]) == bool(tt.whole_shadow_in_band))
                 narrow = aperture - 2.0 * FOV_EDGE_MARGIN_RAD
                 far_end = np.full(beams_az.shape, window_end_m)
                 holdable = shadow_visible_at_tilts(
@@ -177,6 +184,7 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
         "shadow_frames_in_conflict_2alt": counts["alt_conflict"],
         "shadow_in_fov_ratio_all": ratio(counts["all_inside"], counts["all_within"]),
         "shadow_frames_unshowable": counts["unshowable"],
+        "shadow_fov_model_agreement": ratio(counts["model_agrees"], counts["model_checked"]),
         "shadow_time_by_target": {k: {n: round(v, 2) for n, v in d.items()} for k, d in sorted(per_target.items())},
         "tracking_zone": zone_doc,
         "shadow_in_fov_definition": (
