@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 import zipfile
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -18,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from perception.atomic_file import atomic_write
 from perception.errors import FrameFormatError
 from perception.sonar_io.frame import SonarFrame
 
@@ -195,15 +195,7 @@ def frames_to_arrays(frames: Sequence[SonarFrame]) -> dict[str, np.ndarray]:
 
 
 def _atomic_savez(path: Path, arrays: dict[str, np.ndarray], compressed: bool) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            (np.savez_compressed if compressed else np.savez)(handle, **arrays)  # type: ignore[arg-type]
-        os.replace(tmp_name, path)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
+    atomic_write(path, lambda handle: (np.savez_compressed if compressed else np.savez)(handle, **arrays))
 
 
 def save_frame(path: str | os.PathLike[str], frame: SonarFrame, *, compressed: bool = True) -> Path:

@@ -24,14 +24,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
+from perception.atomic_file import atomic_write, atomic_write_bytes
 from perception.mapping.fan import frame_to_fan
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.npz import save_frame
@@ -129,18 +128,7 @@ def _write_png(path: Path, image: np.ndarray) -> None:
     ok, data = cv2.imencode(".png", image)
     if not ok:
         raise OSError(f"{path}: PNG encoding failed")
-    _atomic_write(path, data.tobytes())
-
-
-def _atomic_write(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write_bytes(path, data.tobytes())
 
 
 def run(args: argparse.Namespace) -> int:
@@ -184,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
         "sonar": _config_json(config),
         "frames": records,
     }
-    _atomic_write(out / "truth.json", json.dumps(document, indent=1).encode("utf-8"))
+    atomic_write_bytes(out / "truth.json", json.dumps(document, indent=1).encode("utf-8"))
     if args.aris is not None:
         from perception.sonar_io.aris.reader import write_aris
 
@@ -195,15 +183,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _save_truth_images(path: Path, truth: FrameTruth) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        with open(tmp, "wb") as handle:
-            np.savez_compressed(handle, labels=truth.labels, owner=truth.owner)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write(path, lambda handle: np.savez_compressed(handle, labels=truth.labels, owner=truth.owner))
 
 
 def _config_json(config: SonarConfig) -> dict[str, Any]:

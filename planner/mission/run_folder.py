@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import IO, Any
 
-from perception.mapping.products import atomic_write, atomic_write_text
+from perception.atomic_file import atomic_write, atomic_write_text
 
 
 def _jsonable(value: Any) -> Any:

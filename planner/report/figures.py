@@ -24,7 +24,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.transforms import Bbox
 
-from perception.mapping.products import atomic_write
+from perception.atomic_file import atomic_write
 from planner.report.data import Event, RunData, Series
 from planner.report.height_score import HeightScore
 

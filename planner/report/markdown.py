@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from perception.mapping.products import atomic_write_text
+from perception.atomic_file import atomic_write_text
 from planner.report.data import Event, RunData, RunFolderError, load_run
 from planner.report.figures import (
     ALERT_KINDS,
@@ -378,8 +378,4 @@ def generate_report(run_dir: Path | str, *, match_radius_m: float = DEFAULT_MATC
         stale = out / f"{name}.png"
         if path is None and stale.is_file():
             stale.unlink()
-    report = atomic_write_text(run.root / REPORT_NAME, render_markdown(run, figures, score))
-    for path in [*figures.values(), report]:
-        if path is not None:
-            path.chmod(0o644)  # the atomic writer's temporary file is private
-    return report
+    return atomic_write_text(run.root / REPORT_NAME, render_markdown(run, figures, score))
