@@ -25,6 +25,7 @@ from perception.atomic_file import atomic_write_text
 from perception.heights.pipeline import HeightPipeline, TargetHeight
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.readers import open_recording
+from planner.commands import args as args_types
 from planner.errors import UsageError
 
 #: Altitude changes closer than this count as one altitude, m.
@@ -44,12 +45,13 @@ def register(subparsers: Any) -> None:
     parser.add_argument("files", nargs="+", metavar="FRAME_FILE", help=".npz or .aris frames")
     parser.add_argument(
         "--delta-h",
-        type=float,
+        type=args_types.number(-1000.0, 1000.0, unit="m"),
         metavar="M",
         help="altitude change, m: second altitude minus first (exactly two frames)",
     )
     parser.add_argument(
-        "--altitude", type=float, metavar="M", help="first frame's altitude, m, where files lack it"
+        "--altitude", type=args_types.number(0.0, 1000.0, lo_open=True, unit="m"), metavar="M",
+        help="first frame's altitude, m, where files lack it"
     )
     parser.add_argument("--json", metavar="OUT", help="write the JSON document to OUT ('-' = stdout)")
     parser.set_defaults(func=run)

@@ -8,8 +8,8 @@ import math
 import sys
 from typing import Any
 
+from planner.commands import args as args_types
 from planner.config import default_settings, load_settings
-from planner.errors import UsageError
 from planner.survey.area import load_area
 from planner.survey.lawnmower import plan_survey
 from planner.survey.mission_files import summary_text, write_outputs
@@ -31,31 +31,18 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--out", required=True, help="output folder (created if needed)")
     parser.add_argument("--stay-inside", action="store_true",
                         help="keep every path inside the boundary; report the coverage lost")
-    parser.add_argument("--origin", metavar="LAT,LON",
+    parser.add_argument("--origin", metavar="LAT,LON", type=args_types.lat_lon,
                         help="origin of the local frame in degrees (default: the area's centre)")
-    parser.add_argument("--lane-heading-deg", type=float,
-                        help="lane heading, overriding the settings")
+    parser.add_argument("--lane-heading-deg", type=args_types.heading_deg, metavar="DEG",
+                        help="lane heading, -360..360 deg, overriding the settings")
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
     parser.set_defaults(func=run)
-
-
-def _origin(text: str | None) -> tuple[float, float] | None:
-    if text is None:
-        return None
-    try:
-        lat_s, lon_s = text.split(",")
-        lat, lon = float(lat_s), float(lon_s)
-    except ValueError as exc:
-        raise UsageError(f"--origin must be LAT,LON in degrees, got {text!r}") from exc
-    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
-        raise UsageError(f"--origin out of range: {text!r}")
-    return lat, lon
 
 
 def run(args: argparse.Namespace) -> int:
     """Plan and write the outputs; returns the exit code."""
     settings = load_settings(args.config) if args.config else default_settings()
-    area = load_area(args.area, origin=_origin(args.origin))
+    area = load_area(args.area, origin=args.origin)
     heading = None if args.lane_heading_deg is None else math.radians(args.lane_heading_deg)
     plan = plan_survey(area, settings, stay_inside=args.stay_inside, heading_rad=heading)
     paths = write_outputs(plan, area, args.out,

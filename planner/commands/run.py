@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from perception.geodesy import LocalOrigin
+from planner.commands import args as args_types
 from planner.config import default_settings, load_settings
 from planner.errors import UsageError
 from planner.mission.executor import ExecutorConfig, MissionExecutor, PlanTilt
@@ -40,7 +41,7 @@ def register(subparsers: Any) -> None:
         help="fly a planned survey on a real vehicle (asks before arming)",
         description="Fly plan.json (from `shadowsurvey plan`) on an ArduSub vehicle over MAVLink.",
     )
-    parser.add_argument("--connect", required=True,
+    parser.add_argument("--connect", required=True, type=args_types.connection_string,
                         help="MAVLink connection, e.g. udpin:0.0.0.0:14770, udpout:192.168.2.2:14550, tcp:host:port")
     parser.add_argument("--plan", required=True, help="folder written by `shadowsurvey plan` (or its plan.json)")
     parser.add_argument("--config", help="the settings TOML the plan was made with (default: shipped)")
