@@ -167,12 +167,17 @@ def plan_geojson(plan: SurveyPlan, area: SurveyArea, *, footprint_every: int = 1
     return {"type": "FeatureCollection", "features": feats}
 
 
+def _area_text(area_m2: float) -> str:
+    """An area with its figures kept: 12,309 m^2, 14.2 m^2 (never "0 m^2" for a small one)."""
+    return f"{area_m2:,.0f} m^2" if area_m2 >= 100 else f"{area_m2:.3g} m^2"
+
+
 def summary_text(plan: SurveyPlan) -> str:
     """A short human-readable summary of the plan."""
     s = plan.summary
     lines = [
         f"origin               {plan.origin_lat_deg:.7f}, {plan.origin_lon_deg:.7f}",
-        f"area to cover        {s.area_m2:,.0f} m^2 (water depth {plan.water_depth_m:g} m)",
+        f"area to cover        {_area_text(s.area_m2)} (water depth {plan.water_depth_m:g} m)",
         f"lanes                {s.n_lanes} at heading {math.degrees(s.lane_heading_rad):.1f} deg, "
         f"spacing {s.lane_spacing_m:.2f} m ({s.n_runs} runs over both passes)",
     ]
