@@ -48,6 +48,15 @@ def one_line(text: str) -> str:
     return "; ".join(part.strip() for part in str(text).splitlines() if part.strip())
 
 
+def _message(exc: BaseException) -> str:
+    """The exception's text and notes (:meth:`BaseException.add_note`) on one line."""
+    parts = [str(exc), *getattr(exc, "__notes__", ())]
+    if isinstance(exc, KeyboardInterrupt):
+        parts = parts[1:]
+    return one_line("\n".join(p for p in parts if p)) or ("" if isinstance(exc, KeyboardInterrupt)
+                                                            else type(exc).__name__)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the parser with every subcommand found in :mod:`planner.commands`."""
     parser = _Parser(
@@ -81,10 +90,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         code = int(args.func(args))
     except (ValueError, OSError) as exc:
-        print(f"shadowsurvey {args.command}: error: {one_line(str(exc)) or type(exc).__name__}", file=sys.stderr)
+        print(f"shadowsurvey {args.command}: error: {_message(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print(f"shadowsurvey {args.command}: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        print(f"shadowsurvey {args.command}: interrupted{'; ' + _message(exc) if _message(exc) else ''}",
+              file=sys.stderr)
         return EXIT_INTERRUPTED
     return code
 

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from perception.atomic_file import atomic_write_text
 from planner.survey.area import SurveyArea, area_to_geojson
 from planner.survey.footprint import Footprint, swept_polygon
 from planner.survey.plan import SurveyPlan
@@ -208,7 +209,7 @@ def write_outputs(plan: SurveyPlan, area: SurveyArea, out_dir: str | Path, *,
                   altitude_reference: str = "seabed", acceptance_radius_m: float = 1.0,
                   stem: str = "survey") -> dict[str, Path]:
     """Write plan.json, STEM.plan, STEM.waypoints, STEM.geojson and summary.txt to
-    ``out_dir`` (created if needed); each file is written whole then renamed into place.
+    ``out_dir`` (created if needed); each file is written atomically (:mod:`perception.atomic_file`).
     Returns the paths by kind."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -222,11 +223,4 @@ def write_outputs(plan: SurveyPlan, area: SurveyArea, out_dir: str | Path, *,
         "geojson": (f"{stem}.geojson", json.dumps(plan_geojson(plan, area, footprint_every=n_fp))),
         "summary": ("summary.txt", summary_text(plan)),
     }
-    paths = {}
-    for kind, (name, text) in texts.items():
-        target = out / name
-        tmp = out / f".{name}.tmp"
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(target)
-        paths[kind] = target
-    return paths
+    return {kind: atomic_write_text(out / name, text) for kind, (name, text) in texts.items()}
