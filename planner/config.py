@@ -19,6 +19,7 @@ from typing import Any
 
 from perception.sonar_io.beams import TABLES, load_beam_table
 from planner.errors import ConfigError
+from planner.settings_table import SettingsTable as _Table
 
 SETTINGS_VERSION = 1
 #: Largest slant range, altitude or range window a setting may give, m (forward-looking
@@ -117,71 +118,23 @@ class Settings:
     mission: MissionSettings
     source: str = "<defaults>"
 
+    @property
+    def min_altitude_m(self) -> float:
+        """The lowest altitude above the seabed the vehicle may fly, m: ``vehicle.min_clearance_m``
+        above the tallest expected target (``site.target_height_max_m``).
 
-class _Table:
-    """Typed reads from one TOML table that remember which keys were used."""
-
-    def __init__(self, data: dict[str, Any], name: str, path: str | None):
-        self.data, self.name, self.path = data, name, path
-        self.used: set[str] = set()
-
-    def _key(self, key: str) -> str:
-        return f"{self.name}.{key}"
-
-    def error(self, key: str, message: str) -> ConfigError:
-        return ConfigError(message, key=self._key(key), path=self.path)
-
-    def has(self, key: str) -> bool:
-        return key in self.data
-
-    def number(
-        self,
-        key: str,
-        *,
-        lo: float | None = None,
-        hi: float | None = None,
-        lo_open: bool = False,
-        default: float | None = None,
-    ) -> float:
-        self.used.add(key)
-        if key not in self.data:
-            if default is None:
-                raise self.error(key, "missing")
-            return default
-        value = self.data[key]
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise self.error(key, f"must be a number, got {value!r}")
-        v = float(value)
-        if not math.isfinite(v):
-            raise self.error(key, f"must be finite, got {value!r}")
-        if lo is not None and (v <= lo if lo_open else v < lo):
-            raise self.error(key, f"must be {'>' if lo_open else '>='} {lo:g}, got {v:g}")
-        if hi is not None and v > hi:
-            raise self.error(key, f"must be <= {hi:g}, got {v:g}")
-        return v
-
-    def string(self, key: str, choices: tuple[str, ...], *, default: str | None = None) -> str:
-        self.used.add(key)
-        if key not in self.data:
-            if default is None:
-                raise self.error(key, "missing")
-            return default
-        value = self.data[key]
-        if not isinstance(value, str) or value not in choices:
-            raise self.error(key, f"must be one of {', '.join(choices)}; got {value!r}")
-        return value
-
-    def finish(self) -> None:
-        unknown = sorted(set(self.data) - self.used)
-        if unknown:
-            raise self.error(unknown[0], "unknown setting (check the spelling)")
+        The clearance means this one thing everywhere: the planner keeps the lower pass at
+        or above it, the safety envelope (:mod:`planner.mission.safety`) never commands a
+        depth below it (plus 3 sigma of the seabed estimate), the altitude warnings
+        (:mod:`planner.mission.altitude_watch`) flag any excursion below it.
+        """
+        return self.site.target_height_max_m + self.vehicle.min_clearance_m
 
 
 def _table(root: dict[str, Any], name: str, path: str | None) -> _Table:
     value = root.get(name)
-    if not isinstance(value, dict):
-        raise ConfigError("missing table" if value is None else "must be a table",
-                          key=name, path=path)
+    if value is None:
+        raise ConfigError("missing table", key=name, path=path)
     return _Table(value, name, path)
 
 

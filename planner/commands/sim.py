@@ -18,6 +18,8 @@ from typing import Any
 
 from tqdm import tqdm
 
+from planner.mission.output_folder import check_output_folder, staged_folder
+from planner.mission.run_folder import mark_partial
 from planner.report.markdown import generate_report
 
 
@@ -33,7 +35,10 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("scenario", nargs="?", default="paper-targets",
                         help="built-in scenario name, a scenario folder or scenario.toml (default: paper-targets)")
-    parser.add_argument("--out", default="runs/sim", help="run folder (default: runs/sim)")
+    parser.add_argument("--out", default="runs/sim",
+                        help="run folder (default: runs/sim; an existing run needs --overwrite)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an existing run folder at --out (replaced whole once the new run is complete)")
     parser.add_argument("--fixed-tilt", action="store_true",
                         help="hold the tilt that centres the tracking zone (no pitch loop)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -41,12 +46,19 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the dry dive; exit 0 when completed, 1 when aborted (the run folder says why)."""
-    from planner.dryrun.dive import run_dry_dive
+    """Run the dry dive; exit 0 when completed, 1 when aborted (the run folder says why).
+
+    The scenario, its scene, area and settings are checked and the survey planned before
+    any folder is touched; the run is built in a staged folder and moved to ``--out``
+    when complete (:mod:`planner.mission.output_folder`).
+    """
+    from planner.dryrun.dive import prepare_dry_dive, run_dry_dive
     from planner.dryrun.scenario import load_scenario
 
     overrides = {"pitch_loop": False} if args.fixed_tilt else {}
-    scenario = load_scenario(args.scenario, **overrides)
+    prepared = prepare_dry_dive(load_scenario(args.scenario, **overrides))
+    out = Path(args.out)
+    check_output_folder(out, kind="run", overwrite=args.overwrite)
     bar = None if args.no_progress else tqdm(total=100, unit="%", desc="dive", file=sys.stderr, mininterval=1.0,
                                               bar_format="{l_bar}{bar}| {n:.0f}% [{elapsed}<{remaining}] {postfix}")
 
@@ -57,12 +69,13 @@ def run(args: argparse.Namespace) -> int:
             bar.update(0)  # redraws at most once per mininterval
 
     try:
-        dry = run_dry_dive(scenario, Path(args.out), progress=progress)
+        with staged_folder(out, kind="run", overwrite=args.overwrite, on_failure=mark_partial) as stage:
+            dry = run_dry_dive(prepared, stage, progress=progress)
     finally:
         if bar is not None:
             bar.close()
-    report = generate_report(Path(args.out))
-    print(format_summary(dry.summary, Path(args.out)))
+    report = generate_report(out)
+    print(format_summary(dry.summary, out))
     print(f"report: {report}")
     return 0 if dry.summary.get("status") == "completed" else 1
 
