@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import os
 import zipfile
+import zlib
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,8 @@ import numpy as np
 from perception.atomic_file import atomic_write
 from perception.errors import FrameFormatError
 from perception.sonar_io.frame import SonarFrame
+from perception.sonar_io.sniff import expect_kind
+from perception.sonar_io.validate import check_real
 
 REQUIRED_KEYS = ("image", "range_m", "beam_azimuth_deg", "elevation_aperture_deg", "timestamp_s")
 
@@ -38,13 +41,28 @@ OPTIONAL_KEYS: dict[str, tuple[str, float]] = {
 
 
 def _load_arrays(path: Path) -> dict[str, np.ndarray]:
+    expect_kind(path, "npz")
     try:
-        with np.load(path, allow_pickle=False) as archive:
-            return {key: archive[key] for key in archive.files}
+        archive = np.load(path, allow_pickle=False)
     except FileNotFoundError:
         raise
-    except (zipfile.BadZipFile, EOFError, OSError, ValueError) as exc:
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, NotImplementedError, RuntimeError) as exc:
         raise FrameFormatError(f"not a readable .npz archive ({exc})", path=str(path)) from exc
+    out: dict[str, np.ndarray] = {}
+    with archive:
+        for key in archive.files:
+            try:
+                out[key] = archive[key]
+            except ValueError as exc:
+                if "allow_pickle" in str(exc):
+                    raise FrameFormatError("holds Python objects (pickled), not a numeric array", path=str(path),
+                                           key=key) from None
+                raise FrameFormatError(f"unreadable array ({exc})", path=str(path), key=key) from exc
+            except (zipfile.BadZipFile, zlib.error, EOFError, OSError, NotImplementedError, RuntimeError,
+                    MemoryError) as exc:
+                raise FrameFormatError(f"unreadable array ({type(exc).__name__}: {exc})", path=str(path),
+                                       key=key) from exc
+    return out
 
 
 def _scalar_series(arrays: dict[str, np.ndarray], key: str, n_frames: int | None, path: str) -> np.ndarray:
@@ -52,10 +70,18 @@ def _scalar_series(arrays: dict[str, np.ndarray], key: str, n_frames: int | None
     value = np.asarray(arrays[key])
     if not np.issubdtype(value.dtype, np.number):
         raise FrameFormatError(f"must be numeric, got dtype {value.dtype}", path=path, key=key)
+    _real(value, key, path)
     expected: tuple[int, ...] = () if n_frames is None else (n_frames,)
     if value.shape != expected:
         raise FrameFormatError(f"must have shape {expected}, got {value.shape}", path=path, key=key)
     return value.astype(np.float64)
+
+
+def _real(value: np.ndarray, key: str, path: str) -> None:
+    try:
+        check_real(value, key)
+    except FrameFormatError as exc:
+        raise FrameFormatError(exc.detail, path=path, key=key) from None
 
 
 def frames_from_arrays(arrays: dict[str, np.ndarray], *, path: str = "<arrays>") -> list[SonarFrame]:
@@ -88,6 +114,7 @@ def frames_from_arrays(arrays: dict[str, np.ndarray], *, path: str = "<arrays>")
         value = np.asarray(arrays[key])
         if not np.issubdtype(value.dtype, np.number):
             raise FrameFormatError(f"must be numeric, got dtype {value.dtype}", path=path, key=key)
+        _real(value, key, path)
         if value.ndim == 1:
             return np.broadcast_to(value, (n_frames or 1, value.size))
         if value.ndim == 2 and n_frames is not None and value.shape[0] == n_frames:
