@@ -118,7 +118,7 @@ def check_one_scene(labels: Sequence[str], sound_speeds_m_s: Sequence[float], se
     if speeds is not None and speeds[1][1] - speeds[0][1] > SOUND_SPEED_TOLERANCE_M_S:
         (a, va), (b, vb) = speeds
         raise FrameFormatError(f"{b} has {vb:.1f} m/s, {a} {va:.1f} m/s: frames of one scene share the water "
-                               f"(within {SOUND_SPEED_TOLERANCE_M_S:g} m/s); these look like two recordings",
+                               f"(within {SOUND_SPEED_TOLERANCE_M_S:g} m/s): frames of two scenes?",
                                key="sound_speed_mps")
     depths = _spread(list(zip(labels, seabed_depths_m, strict=True)))
     if depths is not None and depths[1][1] - depths[0][1] > seabed_tolerance_m:

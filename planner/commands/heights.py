@@ -26,6 +26,7 @@ from perception.heights.pipeline import HeightPipeline, TargetHeight
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.readers import open_recording
 from planner.commands import args as args_types
+from planner.commands.frame_checks import HEIGHTS_SEABED_TOLERANCE_M, check_delta_h, check_one_scene
 from planner.errors import UsageError
 
 #: Altitude changes closer than this count as one altitude, m.
@@ -140,6 +141,7 @@ def resolve_altitudes(
             )
         if not math.isfinite(delta_h_m):
             raise UsageError(f"--delta-h must be finite, got {delta_h_m}")
+        check_delta_h([f.label for f in frames], [f.frame for f in frames], delta_h_m, altitude_m)
         deltas = [0.0, float(delta_h_m)]
         altitudes = [first_altitude + d for d in deltas]
     elif all(f.frame.known("altitude_m") for f in frames):
@@ -240,10 +242,18 @@ def compute(
     """Load, check and process the frames; returns the JSON document."""
     frames = load_all(paths)
     check_geometry(frames)
+    check_one_scene([f.label for f in frames], [f.frame for f in frames],
+                    seabed_tolerance_m=HEIGHTS_SEABED_TOLERANCE_M)
     altitudes, deltas = resolve_altitudes(frames, delta_h_m=delta_h_m, altitude_m=altitude_m)
     pipeline = HeightPipeline()
     for frame, altitude, delta in zip(frames_of(frames), altitudes, deltas, strict=True):
         pipeline.add_frame(frame, altitude_m=altitude, delta_h_m=delta)
+    reference = pipeline.shared_reference_altitude() if not math.isfinite(altitudes[0]) else None
+    if reference is not None and not reference[0] > 0.0:
+        where = "--delta-h" if delta_h_m is not None else "the frames' sonar_depth_m"
+        raise UsageError(f"{where}: the altitude changes ({', '.join(f'{d:+.3f}' for d in deltas)} m) put "
+                         f"{frames[0].label} at {reference[0]:.2f} m above the seabed, below it: the sign is wrong "
+                         "(the change is each altitude minus the first) or the frames are not of one scene")
     return heights_document(frames, deltas, pipeline.targets())
 
 

@@ -1,0 +1,65 @@
+"""Cross-checks of recorded frames against each other and against the command line.
+
+``heights`` and ``mosaic`` read frames that should show one scene; these checks refuse,
+with the files named, what would otherwise give confident nonsense:
+
+- :func:`check_one_scene`: the frames agree on the water's sound speed and the seabed's
+  depth (:func:`perception.sonar_io.validate.check_one_scene`);
+- :func:`check_delta_h`: ``--delta-h`` agrees with the altitudes (or depths) the frames
+  carry, keeps both altitudes above the seabed, and is smaller than the range window
+  (both frames see the seabed within it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from perception.errors import FrameFormatError
+from perception.sonar_io import validate
+from perception.sonar_io.frame import SonarFrame
+from planner.errors import UsageError
+
+#: ``heights``: frames of one place from two altitudes; their seabed depths agree within this, m.
+HEIGHTS_SEABED_TOLERANCE_M = 0.5
+#: ``--delta-h`` may differ from the frames' own altitude change by this much, m, or ...
+DELTA_H_TOLERANCE_M = 0.05
+#: ... this fraction of it, whichever is larger (the option is for a better dH than the frames').
+DELTA_H_TOLERANCE_FRACTION = 0.5
+
+
+def seabed_depth_m(frame: SonarFrame) -> float:
+    """Sonar depth plus altitude (NaN unless both are known), m."""
+    return frame.sonar_depth_m + frame.altitude_m
+
+
+def check_one_scene(labels: Sequence[str], frames: Sequence[SonarFrame], *, seabed_tolerance_m: float) -> None:
+    """Refuse frames of two scenes (see the module docstring); the message names both frames."""
+    try:
+        validate.check_one_scene(labels, [f.sound_speed_m_s for f in frames], [seabed_depth_m(f) for f in frames],
+                                 seabed_tolerance_m=seabed_tolerance_m)
+    except FrameFormatError as exc:
+        raise UsageError(f"{exc.detail} (key {exc.key})") from None
+
+
+def check_delta_h(labels: Sequence[str], frames: Sequence[SonarFrame], delta_h_m: float,
+                  altitude_m: float | None) -> None:
+    """Refuse a ``--delta-h`` that the frames (two of them) contradict."""
+    first, second = frames
+    far_m = min(first.window_m[1], second.window_m[1])
+    if abs(delta_h_m) >= far_m:
+        raise UsageError(f"--delta-h {delta_h_m:g} m: the sonar cannot have moved farther than its range window "
+                         f"reaches ({far_m:.2f} m) and seen the seabed from both altitudes ({labels[0]}, {labels[1]})")
+    if first.known("altitude_m") and second.known("altitude_m"):
+        own, what = second.altitude_m - first.altitude_m, "altitude_m"
+    elif first.known("sonar_depth_m") and second.known("sonar_depth_m"):
+        own, what = first.sonar_depth_m - second.sonar_depth_m, "sonar_depth_m"
+    else:
+        own, what = math.nan, ""
+    if math.isfinite(own) and abs(delta_h_m - own) > max(DELTA_H_TOLERANCE_M, DELTA_H_TOLERANCE_FRACTION * abs(own)):
+        raise UsageError(f"--delta-h {delta_h_m:g} m contradicts the frames' {what} ({labels[0]} to {labels[1]}: "
+                         f"{own:+.3f} m); --delta-h is the second altitude minus the first")
+    base = altitude_m if altitude_m is not None else first.altitude_m
+    if math.isfinite(base) and base + delta_h_m <= 0.0:
+        raise UsageError(f"--delta-h {delta_h_m:g} m puts {labels[1]} at {base + delta_h_m:.3f} m altitude, on or "
+                         f"below the seabed ({labels[0]} is at {base:.3f} m)")
