@@ -22,6 +22,8 @@ from planner.errors import UsageError
 
 #: ``heights``: frames of one place from two altitudes; their seabed depths agree within this, m.
 HEIGHTS_SEABED_TOLERANCE_M = 0.5
+#: ``mosaic``: frames of one survey; the seabed may slope, but not by this much, m.
+MOSAIC_SEABED_TOLERANCE_M = 10.0
 #: ``--delta-h`` may differ from the frames' own altitude change by this much, m, or ...
 DELTA_H_TOLERANCE_M = 0.05
 #: ... this fraction of it, whichever is larger (the option is for a better dH than the frames').
