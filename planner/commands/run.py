@@ -136,7 +136,8 @@ def _fly(args: argparse.Namespace, plan: Any, settings: Any, sonar: Any, out: Pa
     write_products(run_folder, onboard, origin, final=True)
     summary = summary_document(result, onboard, wall_s=time.perf_counter() - wall0,
                                abort_message=run_folder.last_message("failsafe"),
-                               extra={"altitude_excursions": [ex.to_dict() for ex in excursions]})
+                               extra={"min_altitude_allowed_m": settings.min_altitude_m,
+                                      "altitude_excursions": [ex.to_dict() for ex in excursions]})
     run_folder.write_json("summary.json", summary)
     run_folder.close()
     return summary

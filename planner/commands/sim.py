@@ -86,12 +86,16 @@ def format_summary(summary: dict[str, Any], out: Path) -> str:
         value = summary.get(key)
         return "n/a" if value is None or (isinstance(value, float) and not math.isfinite(value)) else format(value, fmt)
 
+    excursions = len(summary.get("altitude_excursions") or ()) + len(summary.get("altitude_excursions_true") or ())
     lines = [
         f"dive {summary.get('status')}: {summary.get('reason')} (final state {summary.get('final_state')})",
         f"simulated {num('sim_duration_s', '.0f')} s in {num('wall_duration_s', '.0f')} s wall",
-        f"targets {summary.get('n_targets')} found, {summary.get('n_targets_with_height')} with a height",
-        f"min clearance {num('min_clearance_m', '.2f')} m, depth-limit violations "
-        f"{summary.get('depth_limit_violations')}, shadows in view {num('shadow_in_fov_ratio', '.3f')}",
+        f"targets {summary.get('n_targets')} on the map, {summary.get('n_targets_with_height')} with a height "
+        "(as in targets.csv, targets.geojson and the map)",
+        f"lowest true altitude {num('min_clearance_m', '.2f')} m (allowed {num('min_altitude_allowed_m', '.2f')} m), "
+        f"altitude warnings {excursions}, depth-limit violations {summary.get('depth_limit_violations')}",
+        f"shadows in view {num('shadow_in_fov_ratio', '.3f')} of {summary.get('shadow_frames_within_range')} "
+        "counted target-frames (report.md: Shadows in view)",
     ]
     if "height_mean_abs_error_m" in summary:
         lines.append(f"heights vs truth: mean |error| {100 * summary['height_mean_abs_error_m']:.2f} cm, "

@@ -47,7 +47,8 @@ def frames(draw, geometry=None, dtype=None):
     else:
         image = rng.integers(0, np.iinfo(dtype).max, size=shape, dtype=dtype, endpoint=True)
     optional = {
-        name: draw(st.one_of(st.just(math.nan), st.floats(*PLAUSIBLE[name], allow_nan=False))) for name in OPTIONAL_FIELDS
+        name: draw(st.one_of(st.just(math.nan), st.floats(*PLAUSIBLE[name], allow_nan=False)))
+        for name in OPTIONAL_FIELDS
     }
     return SonarFrame(
         image=image,
