@@ -30,13 +30,6 @@ from planner.report.md import cell, fmt, table
 from planner.report.plotting import truth_label
 
 
-def _near_band_s(summary: Mapping[str, Any]) -> float | None:
-    per = summary.get("shadow_time_by_target")
-    if not isinstance(per, dict) or not per:
-        return None
-    return float(sum(float(v.get("near_band_s") or 0.0) for v in per.values() if isinstance(v, dict)))
-
-
 def margin_lines(run: RunData) -> list[str]:
     """The controller's margin figures (tilt section), with what they include."""
     tilt = run.tilt
@@ -49,13 +42,12 @@ def margin_lines(run: RunData) -> list[str]:
     smallest = float(np.nanmin(m)) if np.isfinite(m).any() else float("nan")
     text = (f"Controller's view (tilt.csv): smallest shadow margin {fmt(smallest, 'deg')}; the loop had a tracked "
             f"shadow outside the field of view for {float(dt[neg].sum()):.1f} s of the {total:.1f} s it tracked "
-            "any target. This counts every target the pitch loop tracks, those nearer than the counted zone (the "
-            "near band) and those still settling included")
-    near = _near_band_s(run.summary or {})
-    if near is not None:
-        text += (f"; the judge's ratio (Shadows in view) leaves those out: targets spent {near:.1f} s in the near "
-                 "band")
-    return [text + ".", ""]
+            "any target. This is the pitch loop's own margin over every target it tracks: also those nearer than "
+            "the counted zone (the near band, and targets closer than 2 altitudes ahead as the vehicle passes over "
+            "them, still tracked from memory), those at the fan's edges or beyond the window, and those still "
+            "settling. It is not the judge's figure: the Shadows in view ratio counts only target-frames in the "
+            "counted zone, and its table gives each target's seconds there.")
+    return [text, ""]
 
 
 def _per_target(summary: Mapping[str, Any]) -> list[str]:
