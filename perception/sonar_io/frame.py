@@ -148,7 +148,7 @@ class SonarFrame:
                 raise FrameFormatError("must be finite or NaN (unknown)", key=name)
             object.__setattr__(self, name, value)
         check_range_window(range_m)  # physically possible values (perception.sonar_io.validate)
-        check_pose({name: getattr(self, name) for name in OPTIONAL_FIELDS})
+        check_pose({"timestamp_s": timestamp, **{name: getattr(self, name) for name in OPTIONAL_FIELDS}})
 
     @property
     def n_samples(self) -> int:

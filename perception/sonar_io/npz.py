@@ -42,27 +42,28 @@ OPTIONAL_KEYS: dict[str, tuple[str, float]] = {
 
 def _load_arrays(path: Path) -> dict[str, np.ndarray]:
     expect_kind(path, "npz")
+    # The file is opened here, not by np.load: numpy leaves it open when the zip is broken.
+    with open(path, "rb") as handle:
+        try:
+            archive = np.load(handle, allow_pickle=False)
+        except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, NotImplementedError,
+                RuntimeError) as exc:
+            raise FrameFormatError(f"not a readable .npz archive ({exc})", path=str(path)) from exc
+        with archive:
+            return {key: _member(archive, key, path) for key in archive.files}
+
+
+def _member(archive: Any, key: str, path: Path) -> np.ndarray:
     try:
-        archive = np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise
-    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, NotImplementedError, RuntimeError) as exc:
-        raise FrameFormatError(f"not a readable .npz archive ({exc})", path=str(path)) from exc
-    out: dict[str, np.ndarray] = {}
-    with archive:
-        for key in archive.files:
-            try:
-                out[key] = archive[key]
-            except ValueError as exc:
-                if "allow_pickle" in str(exc):
-                    raise FrameFormatError("holds Python objects (pickled), not a numeric array", path=str(path),
-                                           key=key) from None
-                raise FrameFormatError(f"unreadable array ({exc})", path=str(path), key=key) from exc
-            except (zipfile.BadZipFile, zlib.error, EOFError, OSError, NotImplementedError, RuntimeError,
-                    MemoryError) as exc:
-                raise FrameFormatError(f"unreadable array ({type(exc).__name__}: {exc})", path=str(path),
-                                       key=key) from exc
-    return out
+        return archive[key]
+    except ValueError as exc:
+        if "allow_pickle" in str(exc):
+            raise FrameFormatError("holds Python objects (pickled), not a numeric array", path=str(path),
+                                   key=key) from None
+        raise FrameFormatError(f"unreadable array ({exc})", path=str(path), key=key) from exc
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, NotImplementedError, RuntimeError, KeyError,
+            MemoryError) as exc:
+        raise FrameFormatError(f"unreadable array ({type(exc).__name__}: {exc})", path=str(path), key=key) from exc
 
 
 def _scalar_series(arrays: dict[str, np.ndarray], key: str, n_frames: int | None, path: str) -> np.ndarray:

@@ -9,7 +9,9 @@ possible, so a frame that parses but cannot be true is refused with the key name
 - numbers are real: a complex ``range_m`` is refused, not silently cut to its real part;
 - pose: ``altitude_m`` > 0 (the sonar is above the seabed), ``sonar_depth_m`` not above
   the surface (beyond :data:`DEPTH_ABOVE_SURFACE_TOLERANCE_M`), tilt and pitch within
-  +-90 deg, roll within +-180 deg, sound speed within :data:`SOUND_SPEED_LIMITS_M_S`.
+  +-90 deg, roll within +-180 deg, heading within ten turns, north/east within
+  :data:`MAX_LOCAL_OFFSET_M` of the origin, sound speed within
+  :data:`SOUND_SPEED_LIMITS_M_S`, the timestamp within :data:`MAX_TIMESTAMP_S`.
 
 :func:`check_one_scene` asks that frames meant to show one scene (``heights``, one map of
 ``mosaic``) agree on the water's sound speed and the seabed's depth (sonar depth plus
@@ -34,6 +36,12 @@ SOUND_SPEED_LIMITS_M_S = (1300.0, 1800.0)
 DEPTH_ABOVE_SURFACE_TOLERANCE_M = 1.0
 #: Deepest a sonar can be, m.
 MAX_DEPTH_M = 11_000.0
+#: Farthest a sonar may be from its survey's local origin, m (north_m, east_m).
+MAX_LOCAL_OFFSET_M = 1.0e6
+#: Largest heading magnitude, rad (ten turns: an unwrapped compass; beyond that, corrupt).
+MAX_HEADING_RAD = 20.0 * math.pi
+#: Largest timestamp magnitude, s (Unix time in microseconds read as seconds is beyond it).
+MAX_TIMESTAMP_S = 1.0e11
 #: Frames of one scene share the water: their sound speeds differ by at most this, m/s.
 SOUND_SPEED_TOLERANCE_M_S = 20.0
 
@@ -82,6 +90,18 @@ def check_pose(values: Mapping[str, float]) -> None:
         if angle is not None and abs(angle) > limit + 1e-9:
             raise FrameFormatError(f"must be within +-{math.degrees(limit):g} deg, got {math.degrees(angle):g}",
                                    key=key)
+    for name in ("north_m", "east_m"):
+        offset = known(name)
+        if offset is not None and abs(offset) > MAX_LOCAL_OFFSET_M:
+            raise FrameFormatError(f"must be within +-{MAX_LOCAL_OFFSET_M:g} m of the survey's origin, got {offset:g}",
+                                   key=name)
+    heading = known("heading_rad")
+    if heading is not None and abs(heading) > MAX_HEADING_RAD:
+        raise FrameFormatError(f"must be within +-{math.degrees(MAX_HEADING_RAD):g} deg, got "
+                               f"{math.degrees(heading):g}", key="heading_deg")
+    timestamp = known("timestamp_s")
+    if timestamp is not None and abs(timestamp) > MAX_TIMESTAMP_S:
+        raise FrameFormatError(f"must be seconds within +-{MAX_TIMESTAMP_S:g}, got {timestamp:g}", key="timestamp_s")
     speed = known("sound_speed_m_s")
     low, high = SOUND_SPEED_LIMITS_M_S
     if speed is not None and not low <= speed <= high:

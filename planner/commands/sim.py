@@ -18,8 +18,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-from planner.mission.output_folder import check_output_folder, staged_folder
-from planner.mission.run_folder import mark_partial
+from planner.mission.output_folder import check_output_folder
 from planner.report.markdown import generate_report
 
 
@@ -52,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     any folder is touched; the run is built in a staged folder and moved to ``--out``
     when complete (:mod:`planner.mission.output_folder`).
     """
-    from planner.dryrun.dive import prepare_dry_dive, run_dry_dive
+    from planner.dryrun.dive import dry_dive_into, prepare_dry_dive
     from planner.dryrun.scenario import load_scenario
 
     overrides = {"pitch_loop": False} if args.fixed_tilt else {}
@@ -69,8 +68,7 @@ def run(args: argparse.Namespace) -> int:
             bar.update(0)  # redraws at most once per mininterval
 
     try:
-        with staged_folder(out, kind="run", overwrite=args.overwrite, on_failure=mark_partial) as stage:
-            dry = run_dry_dive(prepared, stage, progress=progress)
+        dry = dry_dive_into(prepared, out, overwrite=args.overwrite, progress=progress)
     finally:
         if bar is not None:
             bar.close()

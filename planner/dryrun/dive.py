@@ -13,7 +13,7 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -25,8 +25,9 @@ from planner.errors import ConfigError, InfeasibleError
 from planner.mission.altitude_watch import AltitudeLimits, DiveWatch
 from planner.mission.executor import DiveResult, ExecutorConfig, MissionExecutor, TiltSource
 from planner.mission.onboard import OnboardConfig, OnboardPerception
+from planner.mission.output_folder import staged_folder
 from planner.mission.products import summary_document, write_products
-from planner.mission.run_folder import RunFolder
+from planner.mission.run_folder import RunFolder, mark_partial
 from planner.mission.safety import SafetyLimits
 from planner.survey.area import SurveyArea, load_area
 from planner.survey.lawnmower import plan_survey
@@ -225,6 +226,26 @@ def run_dry_dive(
     run.write_json("summary.json", summary)
     run.close()
     return DryRun(Path(out_dir), plan, result, summary, sim)
+
+
+def dry_dive_into(
+    prepared: PreparedDive,
+    out: Path,
+    *,
+    overwrite: bool = False,
+    progress: Callable[[float, float, str], None] | None = None,
+) -> DryRun:
+    """:func:`run_dry_dive` into the run folder ``out``, never losing what is there.
+
+    The run is built in a staged folder beside ``out`` and moved into place when it is
+    complete (:func:`planner.mission.output_folder.staged_folder`): an existing folder
+    needs ``overwrite`` and stays byte for byte as it was if the dive crashes or is
+    interrupted; the stopped run is then kept beside it, its summary marked partial
+    (:func:`planner.mission.run_folder.mark_partial`).
+    """
+    with staged_folder(Path(out), kind="run", overwrite=overwrite, on_failure=mark_partial) as stage:
+        dry = run_dry_dive(prepared, stage, progress=progress)
+    return replace(dry, out_dir=Path(out))
 
 
 def truth_document(scene: Scene, origin: LocalOrigin) -> dict[str, Any]:

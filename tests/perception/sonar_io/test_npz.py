@@ -18,7 +18,7 @@ DTYPES = (np.uint8, np.uint16, np.float32)
 ANGLE_FIELDS = {"tilt_rad", "vehicle_pitch_rad", "vehicle_roll_rad", "heading_rad"}
 #: Values a frame's optional fields may take (perception.sonar_io.validate refuses the rest).
 PLAUSIBLE = {"sonar_depth_m": (-1.0, 1e4), "altitude_m": (1e-3, 1e3), "tilt_rad": (-1.5, 1.5),
-             "vehicle_pitch_rad": (-1.5, 1.5), "vehicle_roll_rad": (-3.1, 3.1), "heading_rad": (-1e4, 1e4),
+             "vehicle_pitch_rad": (-1.5, 1.5), "vehicle_roll_rad": (-3.1, 3.1), "heading_rad": (-60.0, 60.0),
              "north_m": (-1e4, 1e4), "east_m": (-1e4, 1e4), "sound_speed_m_s": (1300.0, 1800.0)}
 
 

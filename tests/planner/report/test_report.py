@@ -20,7 +20,8 @@ from planner.report.timeline import state_at, state_spans
 from tests.planner.report.report_run import ESTIMATES, PASSES, TRUE_TARGETS, write_run
 
 SECTIONS = ("# Dive report:", "## Track against plan", "## Altitude and the altitude filter",
-            "## Tilt and shadow margins", "## Shadows in view", "## Target heights", "### Heights against truth", "## States and events",
+            "## Tilt and shadow margins", "## Shadows in view",
+            "## Target heights", "### Heights against truth", "## States and events",
             "## Maps", "## Data files")
 
 
