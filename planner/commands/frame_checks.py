@@ -7,7 +7,10 @@ with the files named, what would otherwise give confident nonsense:
   depth (:func:`perception.sonar_io.validate.check_one_scene`);
 - :func:`check_delta_h`: ``--delta-h`` agrees with the altitudes (or depths) the frames
   carry, keeps both altitudes above the seabed, and is smaller than the range window
-  (both frames see the seabed within it).
+  (both frames see the seabed within it);
+- :class:`MapExtent`: the frames of one map fit a raster of at most :data:`MAX_MAP_CELLS`
+  cells at the chosen resolution (a navigation jump of 1,000 km would ask for hundreds of
+  gigabytes).
 """
 
 from __future__ import annotations
@@ -65,3 +68,28 @@ def check_delta_h(labels: Sequence[str], frames: Sequence[SonarFrame], delta_h_m
     if math.isfinite(base) and base + delta_h_m <= 0.0:
         raise UsageError(f"--delta-h {delta_h_m:g} m puts {labels[1]} at {base + delta_h_m:.3f} m altitude, on or "
                          f"below the seabed ({labels[0]} is at {base:.3f} m)")
+
+
+#: Most cells a map raster may have (each layer float32: 400 MB at this size).
+MAX_MAP_CELLS = 1.0e8
+
+
+class MapExtent:
+    """The ground the frames of one map cover, checked as they come (see the module docstring)."""
+
+    def __init__(self, resolution_m: float):
+        self.resolution_m = resolution_m
+        self._box = [math.inf, -math.inf, math.inf, -math.inf]  # north min/max, east min/max
+
+    def add(self, label: str, frame: SonarFrame) -> None:
+        """Take ``frame``'s footprint (its position +- its farthest range) or refuse it."""
+        reach = frame.window_m[1]
+        box = self._box
+        box[0], box[1] = min(box[0], frame.north_m - reach), max(box[1], frame.north_m + reach)
+        box[2], box[3] = min(box[2], frame.east_m - reach), max(box[3], frame.east_m + reach)
+        rows, cols = (box[1] - box[0]) / self.resolution_m, (box[3] - box[2]) / self.resolution_m
+        if rows * cols > MAX_MAP_CELLS:
+            raise UsageError(f"{label}: with this frame the map spans {box[1] - box[0]:,.0f} m x "
+                             f"{box[3] - box[2]:,.0f} m, {rows * cols:.3g} cells of {self.resolution_m:g} m (more than "
+                             f"{MAX_MAP_CELLS:.0e}): check the frames' north_m/east_m (or the navigation CSV), or give "
+                             "a coarser --resolution-m")

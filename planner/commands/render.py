@@ -31,6 +31,7 @@ import cv2
 import numpy as np
 
 from perception.atomic_file import atomic_write, atomic_write_bytes
+from perception.errors import FrameFormatError
 from perception.mapping.fan import frame_to_fan
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.npz import save_frame
@@ -40,6 +41,7 @@ from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
 from sim_harness.sonar.scene import builtin_scenes, load_scene
 from sim_harness.sonar.truth import FrameTruth
 from sim_harness.sonar.viewpoint import scene_pose
+from sim_harness.world.errors import PoseError, SonarConfigError, WorldError
 
 #: Height of the preview PNG, pixels (polar image left, fan image right).
 PREVIEW_HEIGHT_PX = 800
@@ -132,7 +134,14 @@ def _write_png(path: Path, image: np.ndarray) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Render the frames; returns the exit code."""
+    """Render the frames; returns the exit code (2, naming the scene, when it cannot be rendered)."""
+    try:
+        return _render(args)
+    except (PoseError, SonarConfigError, WorldError, FrameFormatError) as exc:
+        raise UsageError(f"{args.scene}: cannot render this scene with these options: {exc}") from exc
+
+
+def _render(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene)
     config = _config(args, scene.sonar)
     renderer = SonarRenderer(scene.world, config)
