@@ -101,12 +101,17 @@ class AltitudeWatch:
             return None
         return ref - self.limits.sigmas * (std_m if math.isfinite(std_m) else 0.0)
 
+    def note_state(self, state: str) -> None:
+        """The executor entered ``state`` (``PASS_k`` says which pass; ALTITUDE_CHANGE follows it)."""
+        self._state = state
+        number = state[5:] if state.startswith("PASS_") else ""
+        if number.isdigit():
+            self._passes_begun = max(self._passes_begun, int(number))
+
     def update(self, t_s: float, state: str, altitude_m: float, std_m: float = math.nan) -> list[Event]:
         """One sample: the events it starts or ends."""
         if state != self._state:
-            if state.startswith("PASS_"):
-                self._passes_begun += 1
-            self._state = state
+            self.note_state(state)
         if not math.isfinite(altitude_m):
             return []
         out: list[Event] = []
@@ -172,6 +177,7 @@ def replay(watch: AltitudeWatch, samples: Sequence[tuple[float, float, float]],
     for t_s, altitude_m, std_m in samples:
         while k < len(states) and states[k][0] <= t_s:
             state = states[k][1]
+            watch.note_state(state)
             k += 1
         events += watch.update(t_s, state, altitude_m, std_m)
         last_t = t_s
