@@ -21,7 +21,10 @@ from sim_harness.faults import FaultConfig, TimeWindow
 from sim_harness.vehicle.dynamics import AttitudeDisturbance
 
 SITE = Path(__file__).parent / "data" / "compact"
-MIN_CLEARANCE_M = 0.3  # survey.toml [vehicle] min_clearance_m
+#: Lowest true altitude the dives must keep: 0.1 m over the tallest target (0.2 m). The
+#: survey's lowest allowed altitude, target_height_max_m + min_clearance_m = 0.5 m, is what
+#: the controller holds; a descent's overshoot below it is a warning (altitude_excursions).
+MIN_CLEARANCE_M = 0.3
 DEPTH_LIMIT_M = 10.0  # survey.toml [vehicle] max_depth_m
 MAV_CMD_COMPONENT_ARM_DISARM = 400
 
@@ -82,7 +85,8 @@ def test_nominal_dive_measures_the_paper_targets(nominal: DryRun):
 @pytest.mark.slow
 def test_nominal_dive_writes_a_complete_run_folder(nominal: DryRun):
     out = nominal.out_dir
-    for name in ("plan/plan.json", "plan/survey.plan", "plan/survey.waypoints", "dive.tlog", "events.jsonl",
+    for name in ("plan/plan.json", "plan/survey.plan", "plan/survey.waypoints", "plan/survey.png", "dive.tlog",
+                 "events.jsonl",
                  "nav.csv", "filter.csv", "tilt.csv", "targets.geojson", "targets.csv", "mosaic.tif", "mosaic.png",
                  "mosaic_heights.png", "summary.json", "truth.json"):
         assert (out / name).is_file() and (out / name).stat().st_size > 0, name
@@ -93,6 +97,11 @@ def test_nominal_dive_writes_a_complete_run_folder(nominal: DryRun):
     assert all(-90 < t["lat"] < 90 and -180 < t["lon"] < 180 for t in truth["targets"])
     geo = json.loads((out / "targets.geojson").read_text())
     assert geo["type"] == "FeatureCollection" and geo["features"]
+    # one count of targets everywhere: summary, targets.csv, targets.geojson
+    with (out / "targets.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert summary["n_targets"] == len(rows) == len(geo["features"])
+    assert summary["n_targets_with_height"] == sum(1 for r in rows if r["height_m"])
 
 
 @pytest.mark.slow
