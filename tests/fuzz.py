@@ -10,8 +10,9 @@ from __future__ import annotations
 import io
 import json
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
 from typing import Any
 
 from hypothesis import strategies as st
@@ -48,11 +49,15 @@ def mutated_bytes(draw: Any, data: bytes, *, max_ops: int = 4) -> bytes:
     return bytes(out)
 
 
+def _json_containers(inner: st.SearchStrategy[Any]) -> st.SearchStrategy[Any]:
+    return st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=6), inner, max_size=4)
+
+
 #: Any JSON value, small.
 JSON_VALUES = st.recursive(
     st.none() | st.booleans() | st.integers(-10**20, 10**20) | st.floats(allow_nan=True, allow_infinity=True)
     | st.text(max_size=8),
-    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=6), inner, max_size=4),
+    _json_containers,
     max_leaves=8,
 )
 
@@ -111,6 +116,14 @@ def mutated_toml(draw: Any, text: str) -> str:
             lines[i] = draw(st.sampled_from(("[vehicle]", "[[faults]]", "vehicle = 3", "= 1", "[x.y]", "a.b = 1",
                                              "faults = [1, 2]", 'vehicle = "fast"')))
     return "\n".join(lines) + "\n"
+
+
+def check_reader(read: Callable[[Path], object], path: Path) -> None:
+    """``read(path)`` returns, or raises a ValueError/OSError naming ``path`` (the readers' contract)."""
+    try:
+        read(path)
+    except (ValueError, OSError) as exc:
+        assert str(path) in str(exc), str(exc)
 
 
 def run_cli(argv: Sequence[str]) -> tuple[int, str, str]:

@@ -105,13 +105,18 @@ FIELD_OFFSETS = sorted({off for off, _ in FILE_HEADER_FIELDS.values()}
 OFFSETS = st.sampled_from(FIELD_OFFSETS) | st.integers(0, 2047)
 
 
+def _header_case(offset: int, value: bytes) -> None:
+    """Two frames of the sample recording with 4 bytes at ``offset`` replaced."""
+    data = bytearray(ARIS_BYTES[:1024 + 2 * (1024 + 96_000)])
+    data[offset:offset + 4] = value
+    _frames_case(bytes(data), ".aris")
+
+
 @FAST
 @given(offset=OFFSETS, value=st.binary(min_size=4, max_size=4))
 def test_aris_header_field_damage(offset: int, value: bytes) -> None:
     """Any 4 bytes of the file header or frame 0's header replaced, mostly at the fields used."""
-    data = bytearray(ARIS_BYTES[:1024 + 2 * (1024 + 96_000)])
-    data[offset:offset + 4] = value
-    _frames_case(bytes(data), ".aris")
+    _header_case(offset, value)
 
 
 @pytest.mark.soak
@@ -125,6 +130,4 @@ def test_soak_damaged_npz(data: bytes) -> None:
 @SOAK
 @given(offset=OFFSETS, value=st.binary(min_size=4, max_size=4))
 def test_soak_aris_header_field_damage(offset: int, value: bytes) -> None:
-    data = bytearray(ARIS_BYTES[:1024 + 2 * (1024 + 96_000)])
-    data[offset:offset + 4] = value
-    _frames_case(bytes(data), ".aris")
+    _header_case(offset, value)
