@@ -221,7 +221,8 @@ def run_dry_dive(
                                       beam_azimuth_rad=renderer.config.beam_azimuth_rad, plan=plan)
     truth_extra.update(score_altitude(run, sim, result, limits, altitude_watch.std_at))
     summary = summary_document(result, executor.onboard, wall_s=time.perf_counter() - wall0,
-                               abort_message=run.last_message("failsafe"), extra={"scenario": scenario.name,
+                               abort_message=run.last_message("failsafe"),
+                               extra={"scenario": scenario.name, "min_altitude_allowed_m": settings.min_altitude_m,
                                       "altitude_excursions": [ex.to_dict() for ex in excursions], **truth_extra})
     run.write_json("summary.json", summary)
     run.close()

@@ -102,6 +102,9 @@ def test_nominal_dive_writes_a_complete_run_folder(nominal: DryRun):
         rows = list(csv.DictReader(handle))
     assert summary["n_targets"] == len(rows) == len(geo["features"])
     assert summary["n_targets_with_height"] == sum(1 for r in rows if r["height_m"])
+    # the clearance over the tallest target (0.3 m over 0.2 m) as the lowest allowed altitude
+    assert summary["min_altitude_allowed_m"] == pytest.approx(0.5)
+    assert all(ex["lowest_m"] < ex["limit_m"] for ex in summary["altitude_excursions"])
 
 
 @pytest.mark.slow
