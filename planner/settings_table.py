@@ -65,8 +65,8 @@ class SettingsTable:
     ) -> float:
         """A finite number within ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
         value = self._get(key, default)
-        if value is default and key not in self.data:
-            return float(value)
+        if default is not None and key not in self.data:
+            return float(default)
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.error(key, f"must be a number, got {value!r:.40}")
         v = float(value)

@@ -223,7 +223,8 @@ def frames_to_arrays(frames: Sequence[SonarFrame]) -> dict[str, np.ndarray]:
 
 
 def _atomic_savez(path: Path, arrays: dict[str, np.ndarray], compressed: bool) -> None:
-    atomic_write(path, lambda handle: (np.savez_compressed if compressed else np.savez)(handle, **arrays))
+    save = np.savez_compressed if compressed else np.savez
+    atomic_write(path, lambda handle: save(handle, **arrays))  # type: ignore[arg-type]
 
 
 def save_frame(path: str | os.PathLike[str], frame: SonarFrame, *, compressed: bool = True) -> Path:

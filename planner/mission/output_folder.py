@@ -106,7 +106,7 @@ def _keep_partial(stage: Path, out: Path) -> Path:
 
 @contextmanager
 def staged_folder(out: Path, *, kind: str, overwrite: bool,
-                  on_failure: Callable[[Path, BaseException], None] | None = None,
+                  on_failure: Callable[[Path, BaseException], object] | None = None,
                   keep_partial: bool = True, option: str = "--out") -> Iterator[Path]:
     """Yield a fresh folder to build ``out`` in; move it into place on success.
 
