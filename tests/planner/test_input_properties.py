@@ -31,7 +31,7 @@ AREA_BYTES = (SITE / "area.geojson").read_bytes()
 SURVEY_TEXT = (SITE / "survey.toml").read_text(encoding="utf-8")
 SCENARIO_TEXT = (SITE / "scenario.toml").read_text(encoding="utf-8")
 _CHECKS = [HealthCheck.too_slow, HealthCheck.function_scoped_fixture]
-FAST = settings(max_examples=25, deadline=None, suppress_health_check=_CHECKS)
+FAST = settings(max_examples=40, deadline=None, suppress_health_check=_CHECKS)
 SOAK = settings(max_examples=400, deadline=None, suppress_health_check=_CHECKS)
 
 

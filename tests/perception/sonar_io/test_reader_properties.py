@@ -32,7 +32,7 @@ NPZ_ARRAYS = dict(np.load(EXAMPLES / "paper_tank_0.50m.npz"))
 ARIS_BYTES = (DATA_DIR / "aris" / "sample.aris").read_bytes()
 #: A failing example of these 100 kB files is too large for hypothesis to print without a warning.
 pytestmark = pytest.mark.filterwarnings("ignore::hypothesis.errors.HypothesisWarning")
-FAST = settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+FAST = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 SOAK = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 _DTYPES = st.sampled_from([np.uint8, np.uint16, np.int64, np.float32, np.float64, np.complex128, np.bool_])

@@ -26,7 +26,7 @@ from tests.fuzz import assert_contract, check_reader, mutated_bytes, mutated_tom
 
 SCENES = Path(str(resources.files("sim_harness").joinpath("data", "scenes")))
 TANK_TEXT = (SCENES / "paper-tank.toml").read_text(encoding="utf-8")
-FAST = settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+FAST = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 SOAK = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
