@@ -47,6 +47,16 @@ def check_one_scene(labels: Sequence[str], frames: Sequence[SonarFrame], *, seab
         raise UsageError(f"{exc.detail} (key {exc.key})") from None
 
 
+def check_altitudes(labels: Sequence[str], frames: Sequence[SonarFrame], altitudes_m: Sequence[float]) -> None:
+    """Refuse an altitude (the frame's own, or from ``--altitude``/``--delta-h``) at or beyond the
+    frame's range window: the seabed, and every shadow on it, lies beyond the altitude."""
+    for label, frame, altitude in zip(labels, frames, altitudes_m, strict=True):
+        if math.isfinite(altitude) and altitude >= frame.window_m[1]:
+            raise UsageError(f"{label}: altitude {altitude:.3f} m is beyond the range window's far end "
+                             f"({frame.window_m[1]:.3f} m): the seabed cannot be in this frame (a wrong altitude_m, "
+                             "--altitude or --delta-h?)")
+
+
 def check_delta_h(labels: Sequence[str], frames: Sequence[SonarFrame], delta_h_m: float,
                   altitude_m: float | None) -> None:
     """Refuse a ``--delta-h`` that the frames (two of them) contradict."""

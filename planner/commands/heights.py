@@ -26,7 +26,12 @@ from perception.heights.pipeline import HeightPipeline, TargetHeight
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.readers import open_recording
 from planner.commands import args as args_types
-from planner.commands.frame_checks import HEIGHTS_SEABED_TOLERANCE_M, check_delta_h, check_one_scene
+from planner.commands.frame_checks import (
+    HEIGHTS_SEABED_TOLERANCE_M,
+    check_altitudes,
+    check_delta_h,
+    check_one_scene,
+)
 from planner.errors import UsageError
 
 #: Altitude changes closer than this count as one altitude, m.
@@ -245,6 +250,7 @@ def compute(
     check_one_scene([f.label for f in frames], [f.frame for f in frames],
                     seabed_tolerance_m=HEIGHTS_SEABED_TOLERANCE_M)
     altitudes, deltas = resolve_altitudes(frames, delta_h_m=delta_h_m, altitude_m=altitude_m)
+    check_altitudes([f.label for f in frames], [f.frame for f in frames], altitudes)
     pipeline = HeightPipeline()
     for frame, altitude, delta in zip(frames_of(frames), altitudes, deltas, strict=True):
         pipeline.add_frame(frame, altitude_m=altitude, delta_h_m=delta)

@@ -28,7 +28,7 @@ from perception.mapping.survey_map import SurveyMap
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.readers import open_recording
 from planner.commands import args as args_types
-from planner.commands.frame_checks import MOSAIC_SEABED_TOLERANCE_M, MapExtent, check_one_scene
+from planner.commands.frame_checks import MOSAIC_SEABED_TOLERANCE_M, MapExtent, check_altitudes, check_one_scene
 from planner.commands.nav_csv import NavTable
 from planner.errors import UsageError
 from planner.mission.output_folder import check_output_folder, staged_folder
@@ -77,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
                         raise UsageError(f"{path}: frame at t={frame.timestamp_s:.3f} s has no {name}; "
                                          "give the pose in the frames or with --nav")
                 extent.add(label, frame)
+                check_altitudes([label], [frame], [frame.altitude_m])
                 survey_map.add_frame(frame)
                 bar.update(1)
     targets = survey_map.mapped_targets()

@@ -220,6 +220,24 @@ def test_negative_delta_h_without_altitudes_is_named_not_a_repr(tmp_path: Path) 
     assert "array(" not in err
 
 
+def test_an_altitude_beyond_the_window_is_refused(tmp_path: Path) -> None:
+    a = _frame_file(tmp_path, "a.npz", altitude_m=None, sonar_depth_m=None)
+    b = _frame_file(tmp_path, "b.npz", altitude_m=None, sonar_depth_m=None, timestamp_s=1.0)
+    refused(["heights", str(a), str(b), "--altitude", "4", "--delta-h", "0.1"], str(a), "range window")
+    high = _frame_file(tmp_path, "h.npz", altitude_m=3.5, sonar_depth_m=None)
+    refused(["mosaic", str(high), "--origin", "43.3,5.37", "--out", str(tmp_path / "m")], str(high), "range window")
+
+
+def test_sim_and_run_never_write_into_someones_folder(tmp_path: Path) -> None:
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    refused(["sim", "--out", str(mine), "--no-progress"], str(mine), "--overwrite")
+    refused(["sim", "--out", str(mine), "--overwrite", "--no-progress"], str(mine), "not a shadowsurvey run")
+    refused(["run", "--connect", "udpin:0.0.0.0:14770", "--plan", "p", "--out", str(mine)], str(mine), "--overwrite")
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"] and (mine / "notes.txt").read_text() == "keep"
+
+
 def test_frames_of_two_scenes(tmp_path: Path) -> None:
     water = _frame_file(tmp_path, "w.npz", sound_speed_mps=1540.0)
     refused(["heights", str(TANK_50), str(water)], str(water), str(TANK_50), "sound_speed_mps")
