@@ -114,8 +114,8 @@ def staged_folder(out: Path, *, kind: str, overwrite: bool,
     there why it is partial). With ``keep_partial`` False (a plan: half a plan must never
     be flown) a failed folder is deleted instead. See the module docstring for every case.
     """
-    out = Path(out)
-    check_output_folder(out, kind=kind, overwrite=overwrite, option=option)
+    check_output_folder(Path(out), kind=kind, overwrite=overwrite, option=option)
+    out = Path(out).resolve()  # "." or "runs/.." named by what they are, so the sibling is beside them
     out.parent.mkdir(parents=True, exist_ok=True)
     stage = _sibling(out, "partial")
     stage.mkdir()
