@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import json
 import re
+import tempfile
 from collections.abc import Callable, Sequence
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
@@ -124,6 +125,19 @@ def check_reader(read: Callable[[Path], object], path: Path) -> None:
         read(path)
     except (ValueError, OSError) as exc:
         assert str(path) in str(exc), str(exc)
+
+
+def file_case(name: str, data: str | bytes, read: Callable[[Path], object],
+              argv: Callable[[Path, Path], Sequence[str]], names: Sequence[str] = ()) -> None:
+    """``data`` written to a temporary file ``name``: through ``read`` (:func:`check_reader`), then
+    through ``shadowsurvey argv(file, temporary folder)`` (:func:`assert_contract`, naming the file or
+    one of ``names``)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / name
+        path.write_bytes(data if isinstance(data, bytes) else data.encode("utf-8"))
+        check_reader(read, path)
+        code, _, err = run_cli(argv(path, Path(tmp)))
+        assert_contract(code, err, [str(path), *names])
 
 
 def run_cli(argv: Sequence[str]) -> tuple[int, str, str]:

@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from planner.config import load_settings
 from planner.dryrun.scenario import load_scenario
 from planner.survey.area import load_area
-from tests.fuzz import assert_contract, check_reader, mutated_bytes, mutated_json, mutated_toml, run_cli
+from tests.fuzz import assert_contract, check_reader, file_case, mutated_bytes, mutated_json, mutated_toml, run_cli
 
 DATA = Path(str(resources.files("planner").joinpath("data")))
 SITE = DATA / "scenarios" / "paper-targets"
@@ -42,14 +42,10 @@ def _write(folder: Path, name: str, data: bytes | str) -> Path:
 
 
 def _area_case(doc_or_bytes: Any) -> None:
-    with tempfile.TemporaryDirectory() as tmp:
-        data = doc_or_bytes if isinstance(doc_or_bytes, bytes) else json.dumps(doc_or_bytes).encode("utf-8")
-        area = _write(Path(tmp), "area.geojson", data)
-        check_reader(load_area, area)
-        config = SITE / "survey.toml"
-        code, _, err = run_cli(["plan", str(area), "--config", str(config), "--out", str(Path(tmp) / "out"),
-                                "--no-plot"])
-        assert_contract(code, err, [str(area), str(config)])
+    data = doc_or_bytes if isinstance(doc_or_bytes, bytes) else json.dumps(doc_or_bytes)
+    config = SITE / "survey.toml"
+    file_case("area.geojson", data, load_area, lambda area, tmp: [
+        "plan", str(area), "--config", str(config), "--out", str(tmp / "out"), "--no-plot"], names=[str(config)])
 
 
 @FAST
@@ -65,12 +61,8 @@ def test_damaged_area_documents(doc: Any) -> None:
 
 
 def _settings_case(text: str | bytes) -> None:
-    with tempfile.TemporaryDirectory() as tmp:
-        survey = _write(Path(tmp), "survey.toml", text)
-        check_reader(load_settings, survey)
-        code, _, err = run_cli(["plan", str(SITE / "area.geojson"), "--config", str(survey),
-                                "--out", str(Path(tmp) / "out"), "--no-plot"])
-        assert_contract(code, err, [str(survey)])
+    file_case("survey.toml", text, load_settings, lambda survey, tmp: [
+        "plan", str(SITE / "area.geojson"), "--config", str(survey), "--out", str(tmp / "out"), "--no-plot"])
 
 
 @FAST

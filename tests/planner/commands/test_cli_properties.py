@@ -22,7 +22,7 @@ from planner.cli import main
 from planner.commands.args import connection_string
 from planner.commands.nav_csv import NavTable
 from sim_harness.sonar.scene import load_scene
-from tests.fuzz import assert_contract, check_reader, mutated_bytes, mutated_toml, run_cli
+from tests.fuzz import assert_contract, check_reader, file_case, mutated_bytes, mutated_toml, run_cli
 
 SCENES = Path(str(resources.files("sim_harness").joinpath("data", "scenes")))
 TANK_TEXT = (SCENES / "paper-tank.toml").read_text(encoding="utf-8")
@@ -31,13 +31,8 @@ SOAK = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCh
 
 
 def _scene_case(text: str | bytes) -> None:
-    with tempfile.TemporaryDirectory() as tmp:
-        scene = Path(tmp) / "scene.toml"
-        scene.write_bytes(text if isinstance(text, bytes) else text.encode("utf-8"))
-        check_reader(load_scene, scene)
-        code, _, err = run_cli(["render", str(scene), "--altitude", "0.5", "--samples", "64", "--no-preview",
-                                "--out", str(Path(tmp) / "out")])
-        assert_contract(code, err, [str(scene)])
+    file_case("scene.toml", text, load_scene, lambda scene, tmp: [
+        "render", str(scene), "--altitude", "0.5", "--samples", "64", "--no-preview", "--out", str(tmp / "out")])
 
 
 @FAST
