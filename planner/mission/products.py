@@ -10,16 +10,17 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from perception.mapping.georef import LocalOrigin
+from perception.geodesy import LocalOrigin
 from perception.mapping.heights_layer import MappedTarget
 from perception.mapping.products import (
     MapRaster,
-    map_raster,
     write_geotiff,
     write_png_with_world_file,
     write_targets_geojson,
 )
-from planner.mission.executor import DiveResult, MissionExecutor
+from perception.mapping.survey_map import SAME_TARGET_RADIUS_M, Drift
+from planner.mission.executor import DiveResult
+from planner.mission.onboard import OnboardPerception
 from planner.mission.run_folder import RunFolder
 from planner.report.map_plot import render_map_png
 
@@ -37,7 +38,7 @@ class Products:
 
 def write_products(
     run: RunFolder,
-    executor: MissionExecutor,
+    onboard: OnboardPerception,
     origin: LocalOrigin,
     *,
     truth_points: tuple[tuple[float, float, float], ...] = (),
@@ -48,7 +49,7 @@ def write_products(
     ``truth_points`` (north, east, height) are drawn on the map picture in simulation.
     The picture is rendered only when ``final`` (it is the slowest product).
     """
-    targets = tuple(executor.onboard.mapped_targets())
+    targets = tuple(onboard.mapped_targets())
     write_targets_geojson(run.path("targets.geojson"), targets, origin)
     rows = []
     for t in targets:
@@ -60,9 +61,8 @@ def write_products(
             t.frames_used, t.properties.get("frames_seen", ""), t.properties.get("reason") or "",
         ])
     run.write_csv("targets.csv", TARGET_COLUMNS, rows)
-    raster = None
-    if executor.onboard.mosaic.mosaic.frames_added:
-        raster = map_raster(executor.onboard.mosaic.mosaic, targets)
+    raster = onboard.map_raster(list(targets))
+    if raster is not None:
         write_geotiff(run.path("mosaic.tif"), raster, origin)
         write_png_with_world_file(run.path("mosaic.png"), raster, origin)
         if final:
@@ -70,15 +70,59 @@ def write_products(
     return Products(targets, raster)
 
 
-def summary_document(result: DiveResult, executor: MissionExecutor, *, wall_s: float,
-                     extra: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The fields of ``summary.json`` the controller itself knows (simulation adds truth)."""
-    onboard = executor.onboard
-    targets = onboard.targets()
-    counters = {name: {"accepted": c.accepted, "rejected": c.rejected} for name, c in onboard.filter.counters.items()}
+#: What ``n_targets`` counts, in summary.json: the same targets targets.csv, targets.geojson,
+#: the map and the report show.
+TARGET_COUNT_DEFINITION = (
+    "targets on the map (targets.csv, targets.geojson, mosaic_heights.png, report.md): the height pipeline's "
+    f"tracks, a track whose centre lies within {SAME_TARGET_RADIUS_M:g} m of a track solved from more frames "
+    "folded into it as a fragment of the same target; n_tracks_raw counts the tracks before folding (a diagnostic "
+    "of the tracker)")
+
+
+def drift_document(drift: Drift | None) -> dict[str, Any] | None:
+    """``summary.json``'s ``navigation_drift``: the registration's correction and what it means."""
+    if drift is None:
+        return None
+    size = math.hypot(drift.north_m, drift.east_m)
+    return {
+        "correction_north_m": drift.north_m,
+        "correction_east_m": drift.east_m,
+        "correction_m": size,
+        "correction_std_m": drift.std_m,
+        "navigation_drift_north_m": -drift.north_m,
+        "navigation_drift_east_m": -drift.east_m,
+        "registrations_accepted": drift.accepted,
+        "registrations_refused": drift.refused,
+        "track_m": drift.travelled_m,
+        "plausible_drift_max_m": drift.plausible_m,
+        "meaning": (
+            "registration matched later sonar frames against the seabed mosaic already built and found them "
+            f"{size:.2f} m off: the vehicle's dead-reckoned navigation (DVL) is believed to have drifted by "
+            f"({-drift.north_m:+.2f}, {-drift.east_m:+.2f}) m north, east (1-sigma {drift.std_m:.2f} m per axis) "
+            "since it first mapped that seabed. The correction is added to the position of every later frame and "
+            "of the targets placed from them, so a second pass lines up with the first. It is relative: the map as "
+            "a whole keeps the drift of the first pass over each place. "
+            + ("No registration was accepted, so nothing was corrected." if drift.accepted == 0 else
+               f"It rests on {drift.accepted} accepted registrations ({drift.refused} refused) over "
+               f"{drift.travelled_m:.0f} m of track; the navigation prior allows up to {drift.plausible_m:.2f} m "
+               "after that track.")),
+    }
+
+
+def summary_document(result: DiveResult, onboard: OnboardPerception, *, wall_s: float,
+                     abort_message: str | None = None, extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The fields of ``summary.json`` the controller itself knows (simulation adds truth).
+
+    ``n_targets`` counts the mapped targets, the same ones every other product shows
+    (:data:`TARGET_COUNT_DEFINITION`). ``abort_message`` (the failsafe event's text) goes
+    into ``reason_detail`` of an aborted dive.
+    """
+    mapped = onboard.mapped_targets()
+    status = onboard.status()
     doc: dict[str, Any] = {
         "status": result.status,
         "reason": result.reason,
+        "reason_detail": abort_message if result.status == "aborted" else None,
         "final_state": result.state,
         "states": [{"t_s": round(t, 2), "state": s} for t, s in result.states],
         "sim_duration_s": result.end_s - result.start_s,
@@ -88,13 +132,14 @@ def summary_document(result: DiveResult, executor: MissionExecutor, *, wall_s: f
         "depth_commands_clamped": result.commands_clamped,
         "safe_action": result.safe_action,
         "waypoints_reached": result.waypoints_reached,
-        "frames_processed": onboard.frames_used,
-        "frames_skipped": onboard.frames_skipped,
-        "n_targets": len(targets),
-        "n_targets_with_height": sum(1 for t in targets if t.height_m is not None),
-        "filter_counters": counters,
-        "mosaic_drift_correction_m": [onboard.mosaic.drift.north_m, onboard.mosaic.drift.east_m]
-        if onboard.mosaic.drift is not None else None,
+        "frames_processed": status.frames_used,
+        "frames_skipped": status.frames_skipped,
+        "n_targets": len(mapped),
+        "n_targets_with_height": sum(1 for t in mapped if math.isfinite(t.height_m)),
+        "n_tracks_raw": len(onboard.targets()),
+        "target_count_definition": TARGET_COUNT_DEFINITION,
+        "filter_counters": status.filter_counters,
+        "navigation_drift": drift_document(status.drift),
     }
     if extra:
         doc.update(extra)

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim_harness.autopilot.guidance import NavStatus, Targets
+from sim_harness.autopilot.location import latlon_to_ned
 from sim_harness.autopilot.mission import NAV_COMMANDS, MissionItem, MissionProtocol
-from sim_harness.autopilot.telemetry import latlon_to_ned
 from sim_harness.vehicle.sensors import SensorReadings
 
 M = mavlink

@@ -13,7 +13,7 @@ import math
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim_harness.autopilot.guidance import Mode, Targets
-from sim_harness.autopilot.telemetry import latlon_to_ned
+from sim_harness.autopilot.location import latlon_to_ned
 from sim_harness.vehicle.sensors import SensorReadings
 
 M = mavlink

@@ -15,12 +15,16 @@ from pathlib import Path
 
 import pytest
 
-from planner.commands._dryrun import DryRun, load_scenario, run_dry_dive
+from planner.dryrun.dive import DryRun, run_dry_dive
+from planner.dryrun.scenario import load_scenario
 from sim_harness.faults import FaultConfig, TimeWindow
 from sim_harness.vehicle.dynamics import AttitudeDisturbance
 
 SITE = Path(__file__).parent / "data" / "compact"
-MIN_CLEARANCE_M = 0.3  # survey.toml [vehicle] min_clearance_m
+#: Lowest true altitude the dives must keep: 0.1 m over the tallest target (0.2 m). The
+#: survey's lowest allowed altitude, target_height_max_m + min_clearance_m = 0.5 m, is what
+#: the controller holds; a descent's overshoot below it is a warning (altitude_excursions).
+MIN_CLEARANCE_M = 0.3
 DEPTH_LIMIT_M = 10.0  # survey.toml [vehicle] max_depth_m
 MAV_CMD_COMPONENT_ARM_DISARM = 400
 
@@ -81,7 +85,8 @@ def test_nominal_dive_measures_the_paper_targets(nominal: DryRun):
 @pytest.mark.slow
 def test_nominal_dive_writes_a_complete_run_folder(nominal: DryRun):
     out = nominal.out_dir
-    for name in ("plan/plan.json", "plan/survey.plan", "plan/survey.waypoints", "dive.tlog", "events.jsonl",
+    for name in ("plan/plan.json", "plan/survey.plan", "plan/survey.waypoints", "plan/survey.png", "dive.tlog",
+                 "events.jsonl",
                  "nav.csv", "filter.csv", "tilt.csv", "targets.geojson", "targets.csv", "mosaic.tif", "mosaic.png",
                  "mosaic_heights.png", "summary.json", "truth.json"):
         assert (out / name).is_file() and (out / name).stat().st_size > 0, name
@@ -92,6 +97,14 @@ def test_nominal_dive_writes_a_complete_run_folder(nominal: DryRun):
     assert all(-90 < t["lat"] < 90 and -180 < t["lon"] < 180 for t in truth["targets"])
     geo = json.loads((out / "targets.geojson").read_text())
     assert geo["type"] == "FeatureCollection" and geo["features"]
+    # one count of targets everywhere: summary, targets.csv, targets.geojson
+    with (out / "targets.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert summary["n_targets"] == len(rows) == len(geo["features"])
+    assert summary["n_targets_with_height"] == sum(1 for r in rows if r["height_m"])
+    # the clearance over the tallest target (0.3 m over 0.2 m) as the lowest allowed altitude
+    assert summary["min_altitude_allowed_m"] == pytest.approx(0.5)
+    assert all(ex["lowest_m"] < ex["limit_m"] for ex in summary["altitude_excursions"])
 
 
 @pytest.mark.slow
@@ -167,7 +180,7 @@ def _tilt_sign_changes_per_min(run_dir: Path) -> float:
 def test_nominal_dive_keeps_shadows_in_view(nominal: DryRun):
     """Issue #8: >= 99 % of the in-range target-frames (after settling) see the whole shadow.
 
-    In range = inside the tracking zone (planner.pitch.loop.tracking_zone_start_m), the
+    In range = inside the tracking zone (planner.pitch.aperture.tracking_zone_start_m), the
     same zone the loop serves: from the larger of 2 altitudes and the ground range from
     which the zone, up to the window's end, spans at most the aperture less the loop's
     margin at both edges. Observed on this site: 1.000 in 6 runs (111-147 target-frames);

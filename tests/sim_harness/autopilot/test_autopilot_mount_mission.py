@@ -7,10 +7,10 @@ import math
 from sim_harness.autopilot.autopilot import Mode
 from sim_harness.autopilot.mission import REREQUEST_INTERVAL_S, UPLOAD_TIMEOUT_S
 from sim_harness.simulator import VehicleConfig
-from sim_harness.vehicle.dynamics import MountLimits
+from sim_harness.vehicle.dynamics import MountMechanics
 from tests.sim_harness.autopilot.gcs_peer import M, running_vehicle
 
-LIMITS = MountLimits(min_tilt_rad=math.radians(-20), max_tilt_rad=math.radians(60),
+LIMITS = MountMechanics(min_tilt_rad=math.radians(-20), max_tilt_rad=math.radians(60),
                      max_rate_rad_s=math.radians(20), default_tilt_rad=math.radians(10))
 
 
