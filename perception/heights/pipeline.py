@@ -166,6 +166,12 @@ class HeightPipeline:
         (:func:`perception.heights.reference.onset_reference_altitude`)."""
         return onset_reference_altitude(self._onsets)
 
+    def shadows_reference_altitude(self) -> tuple[float, float] | None:
+        """The first frame's altitude and its 1-sigma, m, from the targets' shadows alone (no
+        seabed onset): a check of the altitude changes given (a wrong sign puts it below the
+        seabed, where the onset would not)."""
+        return shared_reference_altitude(self._tracker.tracks, self._solver, (), self.config)
+
     def shared_reference_altitude(self) -> tuple[float, float] | None:
         """The first frame's altitude and its 1-sigma, m, from all targets and the seabed
         onsets (:func:`perception.heights.reference.shared_reference_altitude`)."""

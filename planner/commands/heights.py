@@ -255,7 +255,7 @@ def compute(
     pipeline = HeightPipeline()
     for frame, altitude, delta in zip(frames_of(frames), altitudes, deltas, strict=True):
         pipeline.add_frame(frame, altitude_m=altitude, delta_h_m=delta)
-    reference = pipeline.shared_reference_altitude() if not math.isfinite(altitudes[0]) else None
+    reference = pipeline.shadows_reference_altitude() if not math.isfinite(altitudes[0]) else None
     if reference is not None and not reference[0] > 0.0:
         where = "--delta-h" if delta_h_m is not None else "the frames' sonar_depth_m"
         raise UsageError(f"{where}: the altitude changes ({', '.join(f'{d:+.3f}' for d in deltas)} m) put "

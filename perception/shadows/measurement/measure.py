@@ -12,7 +12,8 @@ the middle of its shadow give:
 :mod:`perception.shadows.measurement.edges` finds them (fitted steps, unbiased for any
 symmetric blur); here the beams are combined: each range is the mean over the beams
 (each beam's edge is its rough edge plus the pair's fitted offset, so the mean carries
-no rounding), with the fit's standard deviation.
+no rounding) but those whose shadow is much shorter than the others' (they cross the
+target's side), with the fit's standard deviation.
 
 Ranges are slant ranges from the sonar's acoustic centre (range ZERO), read from the
 frame's ``range_m`` axis at the fractional row, never counted from the window start.
@@ -26,6 +27,7 @@ many beams, and is not used for a height.
 from __future__ import annotations
 
 import math
+import statistics
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -68,10 +70,10 @@ class ShadowMeasurement:
     Attributes
     ----------
     azimuth_rad : float
-        Mean azimuth of the beams used, rad, positive to starboard.
+        Mean azimuth of the beams used (as the ranges), rad, positive to starboard.
     r_top_m, r_end_m : float
         Slant ranges of the shadow start and end from range zero, m (mean over the beams
-        used); NaN when not measurable.
+        used but those crossing the target's side); NaN when not measurable.
     sigma_r_m : float
         1-sigma of each of the two ranges, m.
     highlight_range_m : float
@@ -164,6 +166,22 @@ def _cuts(pair: Pair, edges: FrameEdges, n: int, segmentation: Segmentation) -> 
     return reasons
 
 
+#: A beam whose shadow is shorter than this fraction of the pair's median shadow crosses the
+#: target's side (a corner, the rounded edge of its top): left out of the pair's ranges.
+SIDE_LENGTH_FRACTION = 0.75
+
+
+def _without_sides(top: list[float], end: list[float], azimuth: list[float]) -> tuple[float, float, float]:
+    """The pair's start, end and azimuth: means over its beams but those crossing the target's
+    side (shadow under :data:`SIDE_LENGTH_FRACTION` of the median length). Plain Python: a
+    pair has a few dozen beams at most."""
+    lengths = [e - t for t, e in zip(top, end, strict=True)]
+    least = SIDE_LENGTH_FRACTION * statistics.median(lengths)
+    keep = [i for i, length in enumerate(lengths) if length >= least] or list(range(len(top)))
+    k = len(keep)
+    return (sum(top[i] for i in keep) / k, sum(end[i] for i in keep) / k, sum(azimuth[i] for i in keep) / k)
+
+
 def measure_pairs(
     segmentation: Segmentation,
     pairs: Sequence[Pair],
@@ -210,9 +228,6 @@ def measure_pairs(
     azimuth = np.asarray(beam_azimuth_rad, dtype=np.float64)[edges.beams[good]]
     n_good = np.bincount(owner, minlength=n_pairs)
     with np.errstate(invalid="ignore", divide="ignore"):
-        mean_top = np.bincount(owner, weights=top, minlength=n_pairs) / n_good
-        mean_end = np.bincount(owner, weights=end, minlength=n_pairs) / n_good
-        mean_azimuth = np.bincount(owner, weights=azimuth, minlength=n_pairs) / n_good
         mean_near = (np.bincount(owner, weights=np.where(near_ok, near, 0.0), minlength=n_pairs)
                      / np.bincount(owner, weights=near_ok, minlength=n_pairs))
     std_rows = np.maximum(np.fmax(edges.top_std_rows, edges.end_std_rows), MIN_EDGE_STD_SAMPLES)
@@ -240,10 +255,11 @@ def measure_pairs(
             ))
             continue
         r_near = float(mean_near[n])
+        r_top, r_end, azimuth = _without_sides(top_l[a:b], end_l[a:b], azimuth_l[a:b])
         out.append(ShadowMeasurement(
-            azimuth_rad=float(mean_azimuth[n]),
-            r_top_m=float(mean_top[n]),
-            r_end_m=float(mean_end[n]),
+            azimuth_rad=azimuth,
+            r_top_m=r_top,
+            r_end_m=r_end,
             sigma_r_m=float(std_rows[n]) * sample_m,
             highlight_range_m=r_near if math.isfinite(r_near) else highlight_m,
             columns=tuple(columns[a:b]),
