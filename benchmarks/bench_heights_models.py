@@ -37,6 +37,7 @@ import numpy as np
 
 from benchmarks.heights_scoring import Case, Tally, case_from_facet, case_from_renderer, frames_via_files, score
 from perception.heights.pipeline import HeightsConfig, detect_shadows
+from perception.shadows.pairing.pair import PairingConfig
 from perception.shadows.segmentation.config import SegmentationConfig
 from perception.sonar_io.readers import open_recording
 from sim_harness.sonar.family import FamilyMember, draw_member, presets
@@ -54,7 +55,10 @@ SEED_RENDERER = 20261201
 SEED_FACET = 9001
 ORIENTATIONS_DEG = (0, 15, 30, 45, 60, 75, 90)
 ARIS_SAMPLE = Path(__file__).resolve().parent.parent / "tests" / "data" / "aris" / "sample.aris"
-BASELINE = HeightsConfig(segmentation=SegmentationConfig(method="classical"))
+#: The paper's method through the same pipeline: its adaptive threshold, and Algorithm 1's
+#: pairs of a highlight and a shadow (no shadow without a highlight).
+BASELINE = HeightsConfig(segmentation=SegmentationConfig(method="classical"),
+                         pairing=PairingConfig(shadow_only=False))
 CONDITIONS = ("known", "dH only", "+-2 deg attitude")
 BOXES_AND_CYLINDERS = ("box", "pipe", "post")
 

@@ -262,6 +262,8 @@ def _classical(levels: Levels, db_per_level: float, sample_m: float, cfg: Segmen
     shadow_labels, shadows, highlight_labels, highlights = classical_regions(levels, cfg)
     grid = np.asarray(levels, dtype=np.float32)
     background = np.median(grid, axis=1).astype(np.float32)
+    # The spread of the full-resolution levels: the measurement's contrast tests use it.
+    sigma = max(level_spread(grid, background, np.ones(n_rows, dtype=bool)), MIN_SIGMA_DB / db_per_level)
     return Segmentation(
         levels=levels,
         db_per_level=db_per_level,
@@ -269,7 +271,7 @@ def _classical(levels: Levels, db_per_level: float, sample_m: float, cfg: Segmen
         row_step=1,
         grid=grid,
         grid_background=background,
-        sigma=math.nan,
+        sigma=float(sigma),
         noise_level=math.nan,
         shadow_offset=math.nan,
         highlight_offset=math.nan,
