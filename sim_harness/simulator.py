@@ -36,12 +36,14 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim_harness.autopilot.autopilot import Autopilot, AutopilotConfig
 from sim_harness.autopilot.mavlink_endpoint import MavlinkPort, open_transport
 from sim_harness.clock import SimClock
 from sim_harness.errors import ClockStopped, SimConfigError
 from sim_harness.faults import FaultConfig
+from sim_harness.peers import BlueOsServices, LocalPeer, PeerConfig
 from sim_harness.vehicle.dynamics import (
     AttitudeDisturbance,
     MountLimits,
@@ -97,6 +99,9 @@ class VehicleConfig:
     truth_log_length: int = 100_000
     keep_label_images: bool = False  # keep each sonar frame's label images in the truth log
     seed: int = 0
+    #: Other systems on the vehicle's MAVLink network (:mod:`sim_harness.peers`): by
+    #: default BlueOS's own services, heartbeating as system 1.
+    peers: tuple[PeerConfig, ...] = (BlueOsServices(),)
 
     def __post_init__(self) -> None:
         if not 0.0 < self.step_s <= 0.1:
@@ -286,6 +291,9 @@ class VehicleSimulator:
                 open_transport(listen), self.faults, system_id=cfg.autopilot.system_id,
                 component_id=cfg.autopilot.component_id,
             )
+        self._peers = [LocalPeer(peer) for peer in cfg.peers]
+        self._peer_parser = mavlink.MAVLink(None)
+        self._peer_parser.robust_parsing = True
         self.sonar: SimulatedSonar | None = None
         if sonar_renderer is not None:
             self.sonar = SimulatedSonar(
@@ -337,12 +345,13 @@ class VehicleSimulator:
                 replies.extend(ap.handle(msg, t))
             if replies:
                 self.port.send(replies, t)
+        self._serve_peers(t)
         north, east, down = self._state[0], self._state[1], self._state[2]
         attitude = cfg.disturbance.attitude(t, self._pitch_surge_n, self._pitch_surge_rate_n_s)
         readings = self.sensors.sample(t, self._state, attitude)
         if self.sonar is not None:
             self._capture_sonar(t, attitude, readings)
-        thrust, mount_target, out = ap.update(t, dt, readings, self._tilt_rad)
+        thrust, servo_tilt, out = ap.update(t, dt, readings)
         if self.port is not None:
             self.port.send(out, t)
         self._thrust = (thrust[0], thrust[1], thrust[2], thrust[3])
@@ -354,7 +363,9 @@ class VehicleSimulator:
         if state[2] < 0.0:  # the surface: the vehicle cannot fly out of the water
             state = (*state[:2], 0.0, state[3], state[4], state[5], min(state[6], 0.0), state[7])
         self._state = state
-        self._tilt_rad = slew_tilt(self._tilt_rad, mount_target, dt, cfg.mount)
+        # The tilt servo (its own slew rate and limits) follows the autopilot's output, a
+        # body-frame angle: for a stabilised mount the earth-frame target less the pitch.
+        self._tilt_rad = slew_tilt(self._tilt_rad, servo_tilt, dt, cfg.mount)
         self._step_index += 1
         t_next = self._t0 + self._step_index * dt
         self._update_truth(t_next, cfg.disturbance.attitude(t_next, self._pitch_surge_n, self._pitch_surge_rate_n_s))
@@ -403,6 +414,21 @@ class VehicleSimulator:
         self.stop()
 
     # ------------------------------------------------------------------ internals
+    def _serve_peers(self, t_s: float) -> None:
+        """Deliver the peers' messages to the autopilot and out of the socket, as the
+        vehicle's MAVLink router would; the autopilot's answers go out of the socket."""
+        ap = self.autopilot
+        for peer in self._peers:
+            for msg in peer.messages(t_s):
+                data = peer.pack(msg)
+                replies = []
+                for parsed in self._peer_parser.parse_buffer(data) or ():
+                    replies.extend(ap.handle(parsed, t_s))
+                if self.port is not None:
+                    self.port.send_raw(data, t_s)
+                    if replies:
+                        self.port.send(replies, t_s)
+
     def _update_truth(self, t_s: float, attitude: tuple[float, float, float, float]) -> None:
         n, e, d, yaw, u, v, w, r = self._state
         truth = VehicleTruth(
