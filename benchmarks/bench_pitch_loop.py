@@ -1,6 +1,6 @@
 """Pitch loop: whole-shadow-in-view rate against truth, MPC vs fixed tilt, and solve time.
 
-Closed-loop kinematic passes (:func:`planner.pitch.loop.simulate_pass`): altitude
+Closed-loop kinematic passes (:func:`benchmarks.pitch_kinematics.simulate_pass`): altitude
 0.5-2.5 m, speed 0.5 m/s, targets 2-40 cm tall within 0.5 m of the lane, pitch
 disturbance 1.5-3 deg at 0.1-0.3 Hz, 10 frames/s, control every 0.5 s, mount 0-60 deg at
 20 deg/s, window 0.7-12 m, aperture 14 deg, fan 30 deg; noise: 1 cm range, 0.2 deg
@@ -28,18 +28,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from planner.pitch.loop import (
-    FixedTilt,
-    MountLimits,
-    PitchCommand,
-    PitchLoop,
-    PitchLoopConfig,
-    PitchState,
-    TrackedShadow,
-    nominal_tilt_for,
-    random_scenario,
-    simulate_pass,
-)
+from benchmarks.pitch_kinematics import random_scenario, simulate_pass
+from planner.pitch.baseline import NominalTilt, nominal_tilt_for
+from planner.pitch.config import MountLimits, PitchLoopConfig
+from planner.pitch.qp import PitchLoop
+from planner.pitch.types import PitchCommand, PitchState, TrackedShadow
 
 LIMITS = MountLimits(0.0, math.radians(60.0), math.radians(20.0))
 SPARSE_M = (14.0, 24.0)
@@ -84,7 +77,7 @@ def _field(name: str, spacing_m: tuple[float, float], passes: int, duration_s: f
         cfg = PitchLoopConfig(nominal_tilt_rad=nominal_tilt_for(sc.altitude_m, plain), zone_fits_aperture=fits)
         sim_seed = int(rng.integers(1 << 31))
         rec = _Recorder(PitchLoop(cfg, LIMITS))
-        for key, ctl in (("MPC", rec), ("fixed tilt", FixedTilt(cfg, LIMITS))):
+        for key, ctl in (("MPC", rec), ("fixed tilt", NominalTilt(cfg, LIMITS))):
             res = simulate_pass(ctl, sc, config=cfg, limits=LIMITS, rng=np.random.default_rng(sim_seed),
                                 score_config=replace(cfg, zone_fits_aperture=False) if score_plain else None)
             s = stats[key]

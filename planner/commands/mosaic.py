@@ -20,13 +20,12 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from perception.heights.pipeline import HeightPipeline, HeightsConfig
-from perception.mapping.builder import MosaicBuilder, masks_from_shadows
 from perception.mapping.georef import LocalOrigin
-from perception.mapping.heights_layer import MappedTarget
 from perception.mapping.mosaic import MosaicConfig
-from perception.mapping.products import map_raster, write_geotiff, write_png_with_world_file, write_targets_geojson
+from perception.mapping.products import write_geotiff, write_png_with_world_file, write_targets_geojson
 from perception.mapping.registration import RegistrationConfig
+from perception.mapping.survey_map import SurveyMap
+from perception.navigation.history import NavigationHistory
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.readers import open_recording
 from planner.errors import UsageError
@@ -67,25 +66,35 @@ class NavTable:
                                                                          "roll_deg") if name in rows[0]}
         except ValueError as exc:
             raise UsageError(f"{path}: not a number in the navigation CSV ({exc})") from exc
-        if not np.all(np.diff(self.columns["t_s"]) > 0):
+        t = self.columns["t_s"]
+        if not np.all(np.diff(t) > 0):
             raise UsageError(f"{path}: t_s must be strictly increasing")
+        # The one navigation history of the product (as on board): positions interpolated,
+        # attitude and tilt of the nearest row.
+        self.history = NavigationHistory(float(t[-1] - t[0]) + 1.0, max_extrapolation_s=0.0)
+        c = self.columns
+        nan = np.full(t.shape, math.nan)
+        for k, time_s in enumerate(t):
+            self.history.add_position(float(time_s), float(c["north_m"][k]), float(c["east_m"][k]))
+            self.history.add_attitude(float(time_s), math.radians(c["heading_deg"][k]),
+                                      math.radians(c.get("pitch_deg", nan)[k]), math.radians(c.get("roll_deg", nan)[k]))
+            self.history.add_tilt(float(time_s), math.radians(c["tilt_deg"][k]))
 
     def apply(self, frame: SonarFrame) -> SonarFrame:
         """The frame with the pose at its timestamp."""
         t = self.columns["t_s"]
         if not t[0] <= frame.timestamp_s <= t[-1]:
             raise UsageError(f"frame at t={frame.timestamp_s:.3f} s lies outside the navigation CSV")
-        i = int(np.argmin(np.abs(t - frame.timestamp_s)))
+        nav = self.history.at(frame.timestamp_s)
+        if nav is None:  # pragma: no cover - the CSV has at least two rows
+            raise UsageError(f"no navigation at t={frame.timestamp_s:.3f} s")
 
         def lin(name: str) -> float:
             return float(np.interp(frame.timestamp_s, t, self.columns[name]))
 
-        def near_rad(name: str) -> float:
-            return math.radians(self.columns[name][i]) if name in self.columns else math.nan
-
-        return frame.with_fields(north_m=lin("north_m"), east_m=lin("east_m"), altitude_m=lin("altitude_m"),
-                                 heading_rad=near_rad("heading_deg"), tilt_rad=near_rad("tilt_deg"),
-                                 vehicle_pitch_rad=near_rad("pitch_deg"), vehicle_roll_rad=near_rad("roll_deg"),
+        return frame.with_fields(north_m=nav.north_m, east_m=nav.east_m, altitude_m=lin("altitude_m"),
+                                 heading_rad=nav.heading_rad, tilt_rad=nav.tilt_rad,
+                                 vehicle_pitch_rad=nav.pitch_rad, vehicle_roll_rad=nav.roll_rad,
                                  sonar_depth_m=lin("depth_m") if "depth_m" in self.columns else frame.sonar_depth_m)
 
 
@@ -101,9 +110,8 @@ def run(args: argparse.Namespace) -> int:
     """Build the map; exit 0, or 2 for bad input."""
     origin = _origin(args.origin)
     nav = NavTable(Path(args.nav)) if args.nav else None
-    builder = MosaicBuilder(MosaicConfig(resolution_m=args.resolution_m),
-                            None if args.no_registration else RegistrationConfig())
-    heights = HeightPipeline(HeightsConfig(shared_altitude=False))
+    survey_map = SurveyMap(mosaic=MosaicConfig(resolution_m=args.resolution_m),
+                           registration=None if args.no_registration else RegistrationConfig())
     recordings = [open_recording(p) for p in args.frames]
     total = sum(len(r) for r in recordings)
     with tqdm(total=total, unit="frame", desc="mosaic", mininterval=1.0) as bar:
@@ -115,21 +123,13 @@ def run(args: argparse.Namespace) -> int:
                     if not frame.known(name):
                         raise UsageError(f"{path}: frame at t={frame.timestamp_s:.3f} s has no {name}; "
                                          "give the pose in the frames or with --nav")
-                result = heights.add_frame(frame)
-                shadow = unreliable = None
-                if result.measurements:
-                    # Measured shadows stay out of the blend, target echoes out of registration.
-                    masks = masks_from_shadows(result.measurements, range_m=frame.range_m, n_beams=frame.n_beams,
-                                               beam_azimuth_rad=frame.beam_azimuth_rad, image=frame.image)
-                    shadow, unreliable = masks.shadow, masks.target
-                builder.add_frame(frame, exclude_mask=shadow, unreliable_mask=unreliable)
+                survey_map.add_frame(frame)
                 bar.update(1)
-    targets = [MappedTarget(t.target_id, t.north_m, t.east_m,
-                            math.nan if t.height_m is None else t.height_m,
-                            math.nan if t.height_std_m is None else t.height_std_m, t.frames_used)
-               for t in heights.targets() if math.isfinite(t.north_m)]
+    targets = survey_map.mapped_targets()
     out = Path(args.out)
-    raster = map_raster(builder.mosaic, targets)
+    raster = survey_map.raster(targets)
+    if raster is None:
+        raise UsageError(f"{args.frames[0]}: no frame reached the seabed, nothing to map")
     write_geotiff(out / "mosaic.tif", raster, origin)
     write_png_with_world_file(out / "mosaic.png", raster, origin)
     write_targets_geojson(out / "targets.geojson", targets, origin)

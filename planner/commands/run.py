@@ -19,7 +19,7 @@ from typing import Any, TextIO
 from perception.mapping.georef import LocalOrigin
 from planner.config import default_settings, load_settings
 from planner.errors import UsageError
-from planner.mission.executor import ExecutorConfig, FixedTilt, MissionExecutor
+from planner.mission.executor import ExecutorConfig, MissionExecutor, PlanTilt
 from planner.mission.onboard import OnboardConfig, OnboardPerception
 from planner.mission.products import summary_document, write_products
 from planner.mission.run_folder import RunFolder
@@ -85,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         link_lost_action=args.on_link_loss,
     )
     onboard = OnboardPerception(OnboardConfig())
-    tilt = FixedTilt() if args.fixed_tilt else ShadowPitchLoop(plan, settings)
+    tilt = PlanTilt() if args.fixed_tilt else ShadowPitchLoop(plan, settings)
     link = LinkConfig(args.connect, max_depth_m=settings.vehicle.max_depth_m,
                       min_clearance_m=settings.vehicle.min_clearance_m,
                       tlog_path=str(run_folder.path("dive.tlog")), link_timeout_s=5.0, heartbeat_period_s=0.5)
@@ -108,8 +108,8 @@ def run(args: argparse.Namespace) -> int:
         result = executor.run_dive()
     finally:
         client.close()
-    write_products(run_folder, executor, origin, final=True)
-    summary = summary_document(result, executor, wall_s=time.perf_counter() - wall0)
+    write_products(run_folder, onboard, origin, final=True)
+    summary = summary_document(result, onboard, wall_s=time.perf_counter() - wall0)
     run_folder.write_json("summary.json", summary)
     run_folder.close()
     generate_report(Path(args.out))

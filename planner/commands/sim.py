@@ -42,7 +42,8 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the dry dive; exit 0 when completed, 1 when aborted (the run folder says why)."""
-    from planner.commands._dryrun import load_scenario, run_dry_dive
+    from planner.dryrun.dive import run_dry_dive
+    from planner.dryrun.scenario import load_scenario
 
     overrides = {"pitch_loop": False} if args.fixed_tilt else {}
     scenario = load_scenario(args.scenario, **overrides)

@@ -35,6 +35,7 @@ from planner.errors import MissionAborted, SafetyViolation
 from planner.mission.onboard import OnboardPerception
 from planner.mission.run_folder import RunFolder
 from planner.mission.safety import SafetyLimits, clamp_depth, safe_depth_for_altitude
+from planner.mission.vehicle import Vehicle
 from planner.survey.plan import PlanWaypoint, SurveyPass, SurveyPlan
 from vehicle_link.errors import (
     CommandRejected,
@@ -64,7 +65,7 @@ class SonarSource(Protocol):
     def poll(self, now_s: float) -> list[Any]: ...
 
 
-class TiltController(Protocol):
+class TiltSource(Protocol):
     """Chooses the mount tilt each control step (the pitch loop, or a fixed tilt)."""
 
     def tilt_command(self, *, now_s: float, pass_: SurveyPass, onboard: OnboardPerception,
@@ -77,7 +78,7 @@ class TiltController(Protocol):
         ...
 
 
-class FixedTilt:
+class PlanTilt:
     """Holds the plan's tilt for the pass (the baseline the pitch loop is compared with)."""
 
     def tracking_zone(self, pass_: SurveyPass) -> dict[str, float] | None:
@@ -198,8 +199,8 @@ class MissionExecutor:
 
     Parameters
     ----------
-    client
-        A connected-or-connectable :class:`vehicle_link.client.ArduSubClient`.
+    client : Vehicle
+        A connected-or-connectable vehicle (:class:`vehicle_link.client.ArduSubClient`).
     sonar : SonarSource
     plan : SurveyPlan
     config : ExecutorConfig
@@ -208,16 +209,16 @@ class MissionExecutor:
     clock : Clock
         The same clock the client was given.
     onboard : OnboardPerception
-    tilt : TiltController, optional
-        The pitch loop; a :class:`FixedTilt` by default.
+    tilt : TiltSource, optional
+        The pitch loop; a :class:`PlanTilt` by default.
     on_cycle : callable, optional
         Called at the end of every control cycle with the executor (progress bars,
         tests).
     """
 
-    def __init__(self, client: Any, sonar: SonarSource | None, plan: SurveyPlan, config: ExecutorConfig,
+    def __init__(self, client: Vehicle, sonar: SonarSource | None, plan: SurveyPlan, config: ExecutorConfig,
                  run: RunFolder, clock: Clock, onboard: OnboardPerception, *,
-                 tilt: TiltController | None = None,
+                 tilt: TiltSource | None = None,
                  on_cycle: Callable[[MissionExecutor], None] | None = None):
         self.client = client
         self.sonar = sonar
@@ -226,7 +227,7 @@ class MissionExecutor:
         self.run = run
         self.clock = clock
         self.onboard = onboard
-        self.tilt = tilt or FixedTilt()
+        self.tilt = tilt or PlanTilt()
         self.on_cycle = on_cycle
         self.result = DiveResult()
         self._link_lost = threading.Event()
@@ -338,7 +339,8 @@ class MissionExecutor:
             alt, _ = self.onboard.altitude(now)
             status = self.client.latest(SysStatus)
             healthy = status is None or _sensors_healthy(status)
-            if now - self.onboard.last_altimeter_s < cfg.altimeter_timeout_s and math.isfinite(alt) and healthy:
+            if now - self.onboard.status().last_altimeter_s < cfg.altimeter_timeout_s and math.isfinite(alt) \
+                    and healthy:
                 break
             if now > deadline:
                 why = "altimeter not valid" if not math.isfinite(alt) else "sensors unhealthy"
@@ -355,7 +357,7 @@ class MissionExecutor:
                     items.append(waypoint(wp.lat_deg, wp.lon_deg, depth, acceptance_radius_m=cfg.acceptance_radius_m))
             self._command(f"mission upload ({len(items)} items, verified)", lambda: self.client.upload_mission(items))
         if cfg.arm_vehicle_failsafe:
-            our_id = int(getattr(getattr(self.client, "config", None), "source_system", 1))
+            our_id = int(self.client.config.source_system)
             action = 3 if cfg.link_lost_action == "hold" else 4
             self._command(f"SYSID_MYGCS {our_id}", lambda: self.client.set_parameter("SYSID_MYGCS", our_id))
             self._command(f"FS_GCS_ENABLE {action}", lambda: self.client.set_parameter("FS_GCS_ENABLE", action))
@@ -369,15 +371,15 @@ class MissionExecutor:
     def _to_pass_start(self, pass_: SurveyPass) -> None:
         """DESCEND and ALTITUDE_CHANGE: go to the pass's first waypoint at its altitude, settle."""
         self._pass = pass_
-        self.onboard.mosaic_enabled = False
+        self.onboard.set_mapping(False)
         self._send_tilt(pass_.tilt_rad, force=True)
         start = pass_.waypoints[0]
         self._yaw_rad = _bearing(start, pass_.waypoints[1]) if len(pass_.waypoints) > 1 else math.nan
         # A commanded depth change: the altitude filter must expect the vehicle to move.
-        self.onboard.filter.set_maneuvering(True)
+        self.onboard.expect_vertical_motion(True)
         self._go_to(start, pass_, state_timeout_s=self._leg_timeout(start))
         self._settle(pass_.altitude_m, start)
-        self.onboard.filter.set_maneuvering(False)
+        self.onboard.expect_vertical_motion(False)
 
     def _fly_pass(self, pass_: SurveyPass) -> None:
         self._pass = pass_
@@ -397,9 +399,9 @@ class MissionExecutor:
             if run:
                 # Turn in place before the run, so that the lead-in is flown looking ahead.
                 self._turn_at(prev, pass_)
-            self.onboard.mosaic_enabled = run
+            self.onboard.set_mapping(run)
             self._go_to(wp, pass_, state_timeout_s=self._leg_timeout(wp))
-            self.onboard.mosaic_enabled = False
+            self.onboard.set_mapping(False)
             self.result.waypoints_reached += 1
             self.run.event(self.clock.now_s(), "waypoint", f"{wp.kind} lane {wp.lane} reached", pass_=pass_.name,
                            north_m=wp.north_m, east_m=wp.east_m)
@@ -498,16 +500,17 @@ class MissionExecutor:
             name = _mode_name(mode)
             raise self._abort("vehicle_mode_change", f"the vehicle switched to {name} on its own (its failsafe or "
                               "the pilot took over)")
-        if now - self.onboard.last_depth_s > cfg.telemetry_stale_s:
+        status = self.onboard.status()
+        if now - status.last_depth_s > cfg.telemetry_stale_s:
             if self._link_down():
-                raise self._abort("link_lost", f"no heartbeat and no depth for {now - self.onboard.last_depth_s:.1f} s")
-            raise self._abort("stale_telemetry", f"no depth for {now - self.onboard.last_depth_s:.1f} s")
-        nav = self.onboard.nav
+                raise self._abort("link_lost", f"no heartbeat and no depth for {now - status.last_depth_s:.1f} s")
+            raise self._abort("stale_telemetry", f"no depth for {now - status.last_depth_s:.1f} s")
+        nav = status.nav
         if nav is None or now - nav.time_s > cfg.telemetry_stale_s:
             raise self._abort("stale_telemetry", "no navigation telemetry")
-        if now - self.onboard.last_altimeter_s > cfg.altimeter_timeout_s:
+        if now - status.last_altimeter_s > cfg.altimeter_timeout_s:
             raise self._abort("altimeter_failure",
-                              f"no valid altimeter reading for {now - self.onboard.last_altimeter_s:.1f} s")
+                              f"no valid altimeter reading for {now - status.last_altimeter_s:.1f} s")
         alt, _ = self.onboard.altitude(now)
         depth, _ = self.onboard.depth(now)
         if math.isfinite(alt):
@@ -559,7 +562,8 @@ class MissionExecutor:
             self._tilt_cmd_rad = tilt_rad
 
     def _log(self, now: float) -> None:
-        nav = self.onboard.nav
+        status = self.onboard.status()
+        nav = status.nav
         alt, alt_std = self.onboard.altitude(now)
         depth, _ = self.onboard.depth(now)
         seabed, _ = self.onboard.seabed_depth(now)
@@ -567,23 +571,18 @@ class MissionExecutor:
         armed = self.client.armed
         if nav is not None:
             self._nav_log.append(t_s=now, north_m=nav.north_m, east_m=nav.east_m, depth_m=depth,
-                                 altitude_m=self.onboard.last_altimeter_m, heading_deg=math.degrees(nav.heading_rad),
+                                 altitude_m=status.last_altimeter_m, heading_deg=math.degrees(nav.heading_rad),
                                  pitch_deg=math.degrees(nav.pitch_rad), roll_deg=math.degrees(nav.roll_rad),
                                  mode=None if mode is None else int(mode), armed=None if armed is None else int(armed))
-        rejected = sum(c.rejected for c in self.onboard.filter.counters.values())
         self._filter_log.append(t_s=now, depth_est_m=depth, altitude_est_m=alt, altitude_std_m=alt_std,
-                                seabed_depth_est_m=seabed, altimeter_m=self.onboard.last_altimeter_m,
-                                rejected_total=rejected)
+                                seabed_depth_est_m=seabed, altimeter_m=status.last_altimeter_m,
+                                rejected_total=status.filter_rejected)
         self._tilt_log.append(t_s=now, tilt_cmd_deg=math.degrees(self._tilt_cmd_rad),
                               tilt_meas_deg=math.degrees(nav.tilt_rad) if nav else None,
                               pitch_deg=math.degrees(nav.pitch_rad) if nav else None,
                               min_margin_deg=math.degrees(self._margin_rad),
-                              n_tracked=self._n_in_view(),
+                              n_tracked=status.measured_last_frame,
                               altitude_target_m=self._altitude_target_m)
-
-    def _n_in_view(self) -> int:
-        last = self.onboard.last_frame_result
-        return 0 if last is None else len(last.measurements)
 
     # ------------------------------------------------------------- safe actions
     def _safe_action(self, action: SafeAction, why: str) -> None:

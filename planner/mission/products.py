@@ -14,12 +14,12 @@ from perception.mapping.georef import LocalOrigin
 from perception.mapping.heights_layer import MappedTarget
 from perception.mapping.products import (
     MapRaster,
-    map_raster,
     write_geotiff,
     write_png_with_world_file,
     write_targets_geojson,
 )
-from planner.mission.executor import DiveResult, MissionExecutor
+from planner.mission.executor import DiveResult
+from planner.mission.onboard import OnboardPerception
 from planner.mission.run_folder import RunFolder
 from planner.report.map_plot import render_map_png
 
@@ -37,7 +37,7 @@ class Products:
 
 def write_products(
     run: RunFolder,
-    executor: MissionExecutor,
+    onboard: OnboardPerception,
     origin: LocalOrigin,
     *,
     truth_points: tuple[tuple[float, float, float], ...] = (),
@@ -48,7 +48,7 @@ def write_products(
     ``truth_points`` (north, east, height) are drawn on the map picture in simulation.
     The picture is rendered only when ``final`` (it is the slowest product).
     """
-    targets = tuple(executor.onboard.mapped_targets())
+    targets = tuple(onboard.mapped_targets())
     write_targets_geojson(run.path("targets.geojson"), targets, origin)
     rows = []
     for t in targets:
@@ -60,9 +60,8 @@ def write_products(
             t.frames_used, t.properties.get("frames_seen", ""), t.properties.get("reason") or "",
         ])
     run.write_csv("targets.csv", TARGET_COLUMNS, rows)
-    raster = None
-    if executor.onboard.mosaic.mosaic.frames_added:
-        raster = map_raster(executor.onboard.mosaic.mosaic, targets)
+    raster = onboard.map_raster(list(targets))
+    if raster is not None:
         write_geotiff(run.path("mosaic.tif"), raster, origin)
         write_png_with_world_file(run.path("mosaic.png"), raster, origin)
         if final:
@@ -70,12 +69,11 @@ def write_products(
     return Products(targets, raster)
 
 
-def summary_document(result: DiveResult, executor: MissionExecutor, *, wall_s: float,
+def summary_document(result: DiveResult, onboard: OnboardPerception, *, wall_s: float,
                      extra: dict[str, Any] | None = None) -> dict[str, Any]:
     """The fields of ``summary.json`` the controller itself knows (simulation adds truth)."""
-    onboard = executor.onboard
     targets = onboard.targets()
-    counters = {name: {"accepted": c.accepted, "rejected": c.rejected} for name, c in onboard.filter.counters.items()}
+    status = onboard.status()
     doc: dict[str, Any] = {
         "status": result.status,
         "reason": result.reason,
@@ -88,13 +86,13 @@ def summary_document(result: DiveResult, executor: MissionExecutor, *, wall_s: f
         "depth_commands_clamped": result.commands_clamped,
         "safe_action": result.safe_action,
         "waypoints_reached": result.waypoints_reached,
-        "frames_processed": onboard.frames_used,
-        "frames_skipped": onboard.frames_skipped,
+        "frames_processed": status.frames_used,
+        "frames_skipped": status.frames_skipped,
         "n_targets": len(targets),
         "n_targets_with_height": sum(1 for t in targets if t.height_m is not None),
-        "filter_counters": counters,
-        "mosaic_drift_correction_m": [onboard.mosaic.drift.north_m, onboard.mosaic.drift.east_m]
-        if onboard.mosaic.drift is not None else None,
+        "filter_counters": status.filter_counters,
+        "mosaic_drift_correction_m": [status.drift.north_m, status.drift.east_m]
+        if status.drift is not None else None,
     }
     if extra:
         doc.update(extra)

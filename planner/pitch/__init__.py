@@ -1,5 +1,26 @@
-"""The pitch loop that keeps every tracked shadow inside the sonar's vertical aperture."""
+"""The pitch loop that keeps every tracked shadow inside the sonar's vertical aperture.
 
+- :mod:`planner.pitch.config`: the loop's settings and the tilt mount's limits;
+- :mod:`planner.pitch.types`: tracked shadows, the state, margins, commands;
+- :mod:`planner.pitch.aperture`: depressions that keep points, shadows, the tracking zone in view;
+- :mod:`planner.pitch.measurements`: shadows from perception's measurements or the map;
+- :mod:`planner.pitch.prediction`: pitch, altitude and shadow intervals over the horizon;
+- :mod:`planner.pitch.selection`: which shadows are served, conflict yielding;
+- :mod:`planner.pitch.qp`: the QP (casadi) itself, :class:`PitchLoop`;
+- :mod:`planner.pitch.baseline`: the fixed-tilt baseline, :class:`NominalTilt`;
+- :mod:`planner.pitch.control`: the executor's side: what the sonar shows -> the loop -> a tilt.
+"""
+
+from planner.pitch.aperture import (
+    aperture_interval_rad,
+    depression_interval_rad,
+    point_elevation_rad,
+    shadow_geometry,
+    shadow_margins_rad,
+    tracking_zone_start_m,
+)
+from planner.pitch.baseline import NominalTilt
+from planner.pitch.config import MountLimits, PitchLoopConfig
 from planner.pitch.control import (
     DEFAULT_MOUNT,
     ShadowPitchLoop,
@@ -9,7 +30,10 @@ from planner.pitch.control import (
     loop_config,
     merge_pieces,
 )
-from planner.pitch.loop import (
+from planner.pitch.measurements import shadow_from_measurement, shadow_from_ned, shadow_measurement
+from planner.pitch.prediction import predict_pitch_rad
+from planner.pitch.qp import PitchLoop
+from planner.pitch.types import (
     BEFORE_WINDOW_START,
     BEHIND,
     BEYOND_MOUNT_LIMITS,
@@ -18,28 +42,10 @@ from planner.pitch.loop import (
     OUTSIDE_FAN,
     TOO_CLOSE,
     TOO_MANY_TARGETS,
-    FixedTilt,
-    MountLimits,
     PitchCommand,
-    PitchLoop,
-    PitchLoopConfig,
     PitchState,
+    TiltLaw,
     TrackedShadow,
-    aperture_interval_rad,
-    depression_interval_rad,
-    nominal_tilt_for,
-    point_elevation_rad,
-    predict_pitch_rad,
-    random_scenario,
-    shadow_from_measurement,
-    shadow_from_ned,
-    shadow_geometry,
-    shadow_margins_rad,
-    shadow_measurement,
-    simulate_pass,
-    tilt_sign_changes,
-    tracking_zone_start_m,
-    whole_shadow_visible,
 )
 
 __all__ = [
@@ -49,8 +55,8 @@ __all__ = [
     "BEYOND_WINDOW_END",
     "DEFAULT_MOUNT",
     "EXTENT_EXCEEDS_APERTURE",
-    "FixedTilt",
     "MountLimits",
+    "NominalTilt",
     "OUTSIDE_FAN",
     "PitchCommand",
     "PitchLoop",
@@ -59,6 +65,7 @@ __all__ = [
     "ShadowPitchLoop",
     "TOO_CLOSE",
     "TOO_MANY_TARGETS",
+    "TiltLaw",
     "TrackedShadow",
     "ZoneCentredTilt",
     "aperture_interval_rad",
@@ -67,17 +74,12 @@ __all__ = [
     "footprint_from_highlight_m",
     "loop_config",
     "merge_pieces",
-    "nominal_tilt_for",
     "point_elevation_rad",
     "predict_pitch_rad",
-    "random_scenario",
     "shadow_from_measurement",
     "shadow_from_ned",
     "shadow_geometry",
     "shadow_margins_rad",
     "shadow_measurement",
-    "simulate_pass",
-    "tilt_sign_changes",
     "tracking_zone_start_m",
-    "whole_shadow_visible",
 ]

@@ -2,17 +2,17 @@
 
 Each control step the shadows measured in the newest frame (slant ranges from range
 zero, beam azimuth, the frame's altitude, tilt and pitch) become the loop's target model
-(:func:`planner.pitch.loop.shadow_from_measurement`). A shadow cut by an edge of the
+(:func:`planner.pitch.measurements.shadow_from_measurement`). A shadow cut by an edge of the
 field of view (truncated: no height from it) still places its target: its shadow is at
 least as long as seen (and as long as the track's height or the site's smallest height
 make it), so the beam moves toward the cut edge and the next frame shows more; this is
 how a target entering at the far end of the window or the side of the fan is picked up
 before the tracker has a height for it. Targets already mapped with a
 height that lie ahead but are not in the newest frame are fed forward from their seabed
-positions (:func:`planner.pitch.loop.shadow_from_ned`), so the beam is ready for them
+positions (:func:`planner.pitch.measurements.shadow_from_ned`), so the beam is ready for them
 before they appear, and targets seen in the last ``memory_frames`` frames but lost in the
 newest one (a shadow slipping out of the band) stay served from their last position.
-The MPC (:class:`planner.pitch.loop.PitchLoop`) is built once per
+The MPC (:class:`planner.pitch.qp.PitchLoop`) is built once per
 pass, with the pass's planned tilt as the nominal (it keeps the mosaic's coverage), the
 site's tallest and smallest expected target heights as the height priors of targets not
 measured yet, and the search band on (``search_weight_factor``): with no tracked target
@@ -27,19 +27,14 @@ from collections import deque
 from dataclasses import replace
 
 from perception.heights.pipeline import TargetHeight
+from perception.mapping.survey_map import SAME_TARGET_RADIUS_M
 from planner.config import Settings
 from planner.mission.onboard import OnboardPerception
-from planner.pitch.loop import (
-    MountLimits,
-    PitchCommand,
-    PitchLoop,
-    PitchLoopConfig,
-    PitchState,
-    TrackedShadow,
-    nominal_tilt_for,
-    shadow_from_measurement,
-    shadow_from_ned,
-)
+from planner.pitch.baseline import nominal_tilt_for
+from planner.pitch.config import MountLimits, PitchLoopConfig
+from planner.pitch.measurements import shadow_from_measurement, shadow_from_ned
+from planner.pitch.qp import PitchLoop
+from planner.pitch.types import PitchCommand, PitchState, TrackedShadow
 from planner.survey.plan import SurveyPass, SurveyPlan
 
 #: The mount the executor assumes (ArduSub's MNT1_PITCH limits and a typical servo rate).
@@ -47,7 +42,7 @@ DEFAULT_MOUNT = MountLimits(min_tilt_rad=0.0, max_tilt_rad=math.radians(80.0), m
 
 
 class ShadowPitchLoop:
-    """Adapter from on-board perception to :class:`~planner.pitch.loop.PitchLoop`.
+    """Adapter from on-board perception to :class:`~planner.pitch.qp.PitchLoop`.
 
     Parameters
     ----------
@@ -59,14 +54,13 @@ class ShadowPitchLoop:
 
     def __init__(self, plan: SurveyPlan, settings: Settings, *, mount: MountLimits = DEFAULT_MOUNT,
                  memory_frames: int = 30, search_weight_factor: float = 0.1, control_period_s: float = 0.2,
-                 horizon_s: float = 2.0, duplicate_radius_m: float = 0.15, motion_window_s: float = 0.4,
+                 horizon_s: float = 2.0, motion_window_s: float = 0.4,
                  accel_lead_m_s: float = 0.35, targets_refresh_s: float = 0.5, hold_start_s: float = 0.1):
         self.mount = mount
         self.targets_refresh_s = targets_refresh_s
         self._targets_cache: tuple[float, list[TargetHeight]] | None = None
         self.accel_lead_m_s = accel_lead_m_s
         self.motion_window_s = motion_window_s
-        self.duplicate_radius_m = duplicate_radius_m
         self.memory_frames = memory_frames
         self.height_min_m = min(settings.site.target_height_min_m, settings.site.target_height_max_m)
         self._loops: dict[str, PitchLoop] = {}
@@ -110,7 +104,7 @@ class ShadowPitchLoop:
         ``speed_m_s`` times the age of the frame or the navigation sample they come from)."""
         shadows: list[TrackedShadow] = []
         seen: set[int] = set()
-        result = onboard.last_frame_result
+        result = onboard.last_frame
         nav = onboard.nav
         if result is not None and nav is not None:
             heights = {t.target_id: t.height_m for t in self._tracked(onboard, now_s)} if any(
@@ -148,9 +142,9 @@ class ShadowPitchLoop:
                     continue
                 shadows.append(replace(seen_then, along_m=seen_then.along_m - speed_m_s * frame_age_s))
                 seen.add(target_id)
-        shadows = merge_pieces(shadows, radius_m=self.duplicate_radius_m)
+        shadows = merge_pieces(shadows, radius_m=SAME_TARGET_RADIUS_M)
         if nav is not None and math.isfinite(nav.north_m):
-            newest = onboard.heights.n_frames - 1
+            newest = onboard.frames_measured - 1
             nav_age_s = min(max(now_s - nav.time_s, 0.0), 1.0)
             # Tracks with a height first: of two tracks on one spot, the one that knows more stays.
             for t in sorted(self._tracked(onboard, now_s), key=lambda t: t.height_m is None):
@@ -167,7 +161,7 @@ class ShadowPitchLoop:
                 # A remembered track where a measured or another remembered shadow already is
                 # is a second track of that target (the tracker split it): it must not count twice.
                 if any(math.hypot(remembered.along_m - s.along_m, remembered.cross_m - s.cross_m)
-                       < self.duplicate_radius_m for s in shadows):
+                       < SAME_TARGET_RADIUS_M for s in shadows):
                     continue
                 shadows.append(remembered)
         return shadows
@@ -289,7 +283,7 @@ def describe_zone(config: PitchLoopConfig, altitude_m: float) -> dict[str, float
 
 class ZoneCentredTilt:
     """The fixed-tilt baseline over the same tracking zone: each pass holds the tilt that
-    centres the zone at its planned altitude (:func:`planner.pitch.loop.nominal_tilt_for`,
+    centres the zone at its planned altitude (:func:`planner.pitch.baseline.nominal_tilt_for`,
     level vehicle), so the comparison with the loop is over the same targets."""
 
     def __init__(self, plan: SurveyPlan, settings: Settings):

@@ -72,6 +72,18 @@ def segments_cross(a: FloatArray, b: FloatArray, edges: FloatArray) -> NDArray[n
     return np.asarray(cross.any(axis=1))
 
 
+def _touches_vertex(a: FloatArray, b: FloatArray, vertices: FloatArray) -> NDArray[np.bool_]:
+    """Which segments ``a[i]-b[i]`` pass through a ring vertex strictly between their ends."""
+    if len(vertices) == 0 or len(a) == 0:
+        return np.zeros(len(a), dtype=bool)
+    d = (b - a)[:, None, :]
+    rel = vertices[None, :, :] - a[:, None, :]
+    length = np.maximum(1.0, np.hypot(d[..., 0], d[..., 1]))
+    on_line = np.abs(d[..., 0] * rel[..., 1] - d[..., 1] * rel[..., 0]) <= _EPS * length
+    t = (rel * d).sum(axis=-1) / np.maximum((d * d).sum(axis=-1), 1e-300)
+    return np.asarray((on_line & (t > 0.0) & (t < 1.0)).any(axis=1))
+
+
 @dataclass
 class Router:
     """Shortest obstacle-free paths inside a free region (builds its graph on first need).
@@ -87,11 +99,13 @@ class Router:
     free: shapely.Geometry
     margin_m: float = 1.0
     _edges: FloatArray = field(init=False, repr=False)
+    _vertices: FloatArray = field(init=False, repr=False)
     _graphs: dict[float, tuple[FloatArray, FloatArray, NDArray[np.int32]]] = field(
         init=False, default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         self._edges = _ring_edges(self.free)
+        self._vertices = _ring_vertices(self.free)
         shapely.prepare(self.free)
 
     def visible(self, a: FloatArray, b: FloatArray) -> NDArray[np.bool_]:
@@ -103,7 +117,23 @@ class Router:
         ok = ~segments_cross(a, b, self._edges)
         mid = 0.5 * (a + b)
         ok &= shapely.intersects_xy(self.free, mid[:, 0], mid[:, 1])
+        # A hop that meets the boundary only at ring vertices (a diagonal through a box's
+        # two corners) crosses no edge properly, and its midpoint may lie outside the
+        # obstacle: between two such touches it is wholly inside or outside the free
+        # region, so the middle of every piece between touches decides.
+        for i in np.flatnonzero(ok & _touches_vertex(a, b, self._vertices)):
+            ok[i] = self._pieces_free(a[i], b[i])
         return np.asarray(ok)
+
+    def _pieces_free(self, a: FloatArray, b: FloatArray) -> bool:
+        """Whether every piece of ``a-b`` between its vertex touches lies in the free region."""
+        d = b - a
+        rel = self._vertices - a
+        on = np.abs(d[0] * rel[:, 1] - d[1] * rel[:, 0]) <= _EPS * max(1.0, float(np.hypot(*d)))
+        t = rel[on] @ d / float(d @ d)
+        cuts = np.unique(np.concatenate([[0.0, 1.0], t[(t > 0.0) & (t < 1.0)]]))
+        mids = a + np.outer(0.5 * (cuts[:-1] + cuts[1:]), d)
+        return bool(np.all(shapely.intersects_xy(self.free, mids[:, 0], mids[:, 1])))
 
     def _insets_m(self) -> tuple[float, ...]:
         """The node insets tried in turn, m (see the module docstring)."""

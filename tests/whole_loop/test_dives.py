@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from planner.commands._dryrun import DryRun, load_scenario, run_dry_dive
+from planner.dryrun.dive import DryRun, run_dry_dive
+from planner.dryrun.scenario import load_scenario
 from sim_harness.faults import FaultConfig, TimeWindow
 from sim_harness.vehicle.dynamics import AttitudeDisturbance
 
@@ -167,7 +168,7 @@ def _tilt_sign_changes_per_min(run_dir: Path) -> float:
 def test_nominal_dive_keeps_shadows_in_view(nominal: DryRun):
     """Issue #8: >= 99 % of the in-range target-frames (after settling) see the whole shadow.
 
-    In range = inside the tracking zone (planner.pitch.loop.tracking_zone_start_m), the
+    In range = inside the tracking zone (planner.pitch.aperture.tracking_zone_start_m), the
     same zone the loop serves: from the larger of 2 altitudes and the ground range from
     which the zone, up to the window's end, spans at most the aperture less the loop's
     margin at both edges. Observed on this site: 1.000 in 6 runs (111-147 target-frames);

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from planner.commands._dryrun import load_scenario, run_dry_dive
+from planner.dryrun.dive import run_dry_dive
+from planner.dryrun.scenario import load_scenario
 
 SITE = Path(__file__).parent / "data" / "compact"
 

@@ -1,4 +1,4 @@
-"""Scenario files of dry-run dives (``planner.commands._dryrun.load_scenario``): the
+"""Scenario files of dry-run dives (``planner.dryrun.load_scenario``): the
 built-in one, the ``[attitude]`` disturbance table and the errors that name what is wrong."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from planner.commands._dryrun import load_scenario
+from planner.dryrun.scenario import load_scenario
 from planner.errors import ConfigError
 from sim_harness.vehicle.dynamics import AttitudeDisturbance
 

@@ -1,5 +1,6 @@
-"""On board, the mosaic leaves the shadows the height pipeline measured out of its average,
-and (when turned on) registration takes the navigation's drift out of the map.
+"""On board, the frame-to-map chain leaves the shadows the height pipeline measured out of
+the mosaic's average, and (when turned on) registration takes the navigation's drift out
+of the map; frames are stamped with the telemetry's navigation.
 
 A raised cylinder (20 cm across, 15 cm high) on a flat seabed, seen along one lane at 1 m
 altitude: its shadow falls behind it. The frames go through :class:`OnboardPerception`
@@ -11,13 +12,18 @@ left empty or show the seabed the other frames saw there.
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from perception.mapping.builder import MosaicBuilder
 from perception.mapping.mosaic import MosaicConfig
-from planner.mission.onboard import MAX_EXTRAPOLATION_S, OnboardConfig, OnboardPerception
+from perception.mapping.products import MapRaster
+from perception.mapping.registration import RegistrationConfig
+from perception.mapping.survey_map import SurveyMap
+from perception.navigation.history import MAX_EXTRAPOLATION_S
+from planner.mission.onboard import OnboardConfig, OnboardPerception
 from sim_harness.world.texture import SeabedTexture
 from sim_harness.world.world import TargetSpec
 from tests.perception.mapping.test_mosaic_render import (
@@ -32,6 +38,17 @@ from tests.perception.mapping.test_mosaic_render import (
 from vehicle_link.telemetry import Attitude, GlobalPosition, LocalPositionNed, MountStatus, Rangefinder
 
 CYLINDER = TargetSpec("C", "cylinder", 4.0, -0.2, 0.2, 0.2, 0.15, material="metal")
+
+
+def _raster_as_mosaic(raster: MapRaster) -> SimpleNamespace:
+    """A map raster (north up, cropped) in the layout of ``TiledMosaic.raster()`` (south up,
+    (row0, col0) of its first cell), behind a ``.mosaic`` as the marker helpers read it."""
+    rows = raster.intensity.shape[0]
+    row0 = int(round(raster.north_m / raster.resolution_m)) - rows
+    col0 = int(round(raster.west_m / raster.resolution_m))
+    mean = np.nan_to_num(raster.intensity[::-1], nan=0.0)
+    view = (mean, raster.weight[::-1], row0, col0)
+    return SimpleNamespace(mosaic=SimpleNamespace(raster=lambda: view))
 
 
 def _telemetry(frame, depth_m: float) -> list[object]:
@@ -60,11 +77,17 @@ def test_onboard_mosaic_leaves_measured_shadows_out():
         own = onboard.stamp(frame)
         if own is not None and own.known("north_m") and own.known("heading_rad"):
             plain.add_frame(own, altitude_m=own.altitude_m)  # the same pose, no masks
-    assert onboard.frames_used >= len(frames) - 5
+    assert onboard.status().frames_used >= len(frames) - 5
     assert measured >= 10, "the height pipeline measured (almost) no shadow"
-    mean, weight, row0, col0 = onboard.mosaic.mosaic.raster()
+    raster = onboard.map_raster()
+    assert raster is not None
+    mean, weight, row0, col0 = _raster_as_mosaic(raster).mosaic.raster()
     p_mean, p_weight, p_row0, p_col0 = plain.mosaic.raster()
-    assert (row0, col0) == (p_row0, p_col0)
+    assert p_row0 <= row0 and p_col0 <= col0
+    # the on-board raster is cropped to its cells with data: bring both to one grid
+    p_mean = p_mean[row0 - p_row0 : row0 - p_row0 + mean.shape[0], col0 - p_col0 : col0 - p_col0 + mean.shape[1]]
+    p_weight = p_weight[row0 - p_row0 : row0 - p_row0 + mean.shape[0], col0 - p_col0 : col0 - p_col0 + mean.shape[1]]
+    p_row0, p_col0 = row0, col0
     # the stretch behind the cylinder (north of it: the lane looks north)
     r0 = int(math.floor((CYLINDER.north_m + 0.1) / RES_M)) - row0
     c0 = int(math.floor(CYLINDER.east_m / RES_M)) - col0
@@ -90,8 +113,11 @@ def test_onboard_registration_takes_drift_out_of_the_map():
             onboard.listener(record)
         onboard.drain()
         onboard.process_frames([frame])  # the frame's own (true) pose is replaced by the telemetry's
-    assert onboard.mosaic.drift is not None and onboard.mosaic.drift.accepted >= 10
-    errors = position_errors(onboard.mosaic, dive)
+    drift = onboard.status().drift
+    assert drift is not None and math.hypot(drift.north_m, drift.east_m) > 0.02
+    raster = onboard.map_raster()
+    assert raster is not None
+    errors = position_errors(_raster_as_mosaic(raster), dive)
     assert errors.max() <= 0.03, errors
 
 
@@ -108,40 +134,36 @@ def test_frames_are_placed_from_position_reports_not_attitude_samples():
             onboard.listener(LocalPositionNed(t, t, speed * t, 1.0, 5.0, speed, 0.0, 0.0))
     onboard.drain()
     for t in (0.13, 0.55, 1.21, 1.99):
-        position = onboard.position_at(t)
-        assert position is not None
-        assert position[0] == pytest.approx(speed * t, abs=1e-9) and position[1] == pytest.approx(1.0)
-    ahead = onboard.position_at(2.3)  # 0.3 s past the newest report: extrapolated
-    assert ahead is not None and ahead[0] == pytest.approx(speed * 2.3)
-    far = onboard.position_at(5.0)  # extrapolation stops after MAX_EXTRAPOLATION_S
-    assert far is not None and far[0] == pytest.approx(speed * (2.0 + MAX_EXTRAPOLATION_S))
-    assert OnboardPerception().position_at(1.0) is None
+        nav = onboard.nav_at(t)
+        assert nav is not None
+        assert nav.north_m == pytest.approx(speed * t, abs=1e-9) and nav.east_m == pytest.approx(1.0)
+    ahead = onboard.nav_at(2.3)  # 0.3 s past the newest report: extrapolated
+    assert ahead is not None and ahead.north_m == pytest.approx(speed * 2.3)
+    far = onboard.nav_at(5.0)  # extrapolation stops after MAX_EXTRAPOLATION_S
+    assert far is not None and far.north_m == pytest.approx(speed * (2.0 + MAX_EXTRAPOLATION_S))
+    assert OnboardPerception().nav_at(1.0) is None
 
 
 @pytest.mark.slow
 def test_targets_are_placed_with_the_drift_registration_found():
     """The height pipeline sees each frame moved by the drift registration has found, so its
-    targets sit where the mosaic puts them: the same frames through two on-board pipelines,
-    one with a drift estimate of (+6, -4) cm, give targets exactly that far apart."""
+    targets sit where the mosaic puts them: the same frames through two chains, one with a
+    drift estimate of (+6, -4) cm, give targets exactly that far apart."""
     dive = render_dive(texture=None, markers=False, extra_targets=(CYLINDER,))
     frames = [f for f, lane in zip(dive.frames, dive.lane, strict=True) if lane == 0][:60]
-    plain = OnboardPerception(OnboardConfig(mosaic_resolution_m=RES_M, registration=True))
-    drifted = OnboardPerception(OnboardConfig(mosaic_resolution_m=RES_M, registration=True))
-    assert drifted.mosaic.drift is not None
-    for onboard in (plain, drifted):
+    plain = SurveyMap(mosaic=MosaicConfig(resolution_m=RES_M), registration=RegistrationConfig())
+    drifted = SurveyMap(mosaic=MosaicConfig(resolution_m=RES_M), registration=RegistrationConfig())
+    estimator = drifted._builder.drift  # the test stands in for an accepted match
+    assert estimator is not None
+    for survey_map in (plain, drifted):
         for frame in frames:
-            if onboard is drifted:  # as if registration had accepted a match before these frames
-                drifted.mosaic.drift.north_m, drifted.mosaic.drift.east_m = 0.06, -0.04
-            for record in _telemetry(frame, SEABED_DEPTH_M - ALTITUDE_M):
-                onboard.listener(record)
-            onboard.drain()
-            onboard.process_frames([frame])
-    assert plain.mosaic.drift is not None and plain.mosaic.drift.north_m == 0.0  # untextured: no match
+            if survey_map is drifted:  # as if registration had accepted a match before these frames
+                estimator.north_m, estimator.east_m = 0.06, -0.04
+            survey_map.add_frame(frame)
+    assert plain.drift is not None and plain.drift.north_m == 0.0  # untextured: no match
     a = [t for t in plain.targets() if math.isfinite(t.north_m)]
     b = [t for t in drifted.targets() if math.isfinite(t.north_m)]
     assert len(a) == len(b) >= 1
     for ta, tb in zip(a, b, strict=True):
         assert tb.north_m - ta.north_m == pytest.approx(0.06, abs=1e-9)
         assert tb.east_m - ta.east_m == pytest.approx(-0.04, abs=1e-9)
-    frame = plain.stamp(frames[0])
-    assert frame is not None and plain.drift_corrected(frame) is frame

@@ -13,10 +13,26 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from benchmarks.pitch_kinematics import (
+    random_scenario,
+    simulate_pass,
+    tilt_sign_changes,
+    whole_shadow_visible,
+)
 from perception.errors import GeometryError, MeasurementError
 from perception.geometry import insonified_band, ray_angles_sonar, sonar_to_ned
-from planner.commands._dryrun import shadow_visible_at_tilts
+from planner.dryrun.shadow_view import shadow_visible_at_tilts
 from planner.errors import ConfigError
+from planner.pitch.aperture import (
+    aperture_interval_rad,
+    depression_interval_rad,
+    point_elevation_rad,
+    shadow_geometry,
+    shadow_margins_rad,
+    tracking_zone_start_m,
+)
+from planner.pitch.baseline import NominalTilt, nominal_tilt_for
+from planner.pitch.config import MountLimits, PitchLoopConfig
 from planner.pitch.control import (
     ShadowPitchLoop,
     ZoneCentredTilt,
@@ -25,7 +41,10 @@ from planner.pitch.control import (
     loop_config,
     merge_pieces,
 )
-from planner.pitch.loop import (
+from planner.pitch.measurements import shadow_from_measurement, shadow_from_ned, shadow_measurement
+from planner.pitch.prediction import predict_pitch_rad
+from planner.pitch.qp import PitchLoop
+from planner.pitch.types import (
     BEFORE_WINDOW_START,
     BEHIND,
     BEYOND_MOUNT_LIMITS,
@@ -34,28 +53,9 @@ from planner.pitch.loop import (
     OUTSIDE_FAN,
     TOO_CLOSE,
     TOO_MANY_TARGETS,
-    FixedTilt,
-    MountLimits,
     PitchCommand,
-    PitchLoop,
-    PitchLoopConfig,
     PitchState,
     TrackedShadow,
-    aperture_interval_rad,
-    depression_interval_rad,
-    nominal_tilt_for,
-    point_elevation_rad,
-    predict_pitch_rad,
-    random_scenario,
-    shadow_from_measurement,
-    shadow_from_ned,
-    shadow_geometry,
-    shadow_margins_rad,
-    shadow_measurement,
-    simulate_pass,
-    tilt_sign_changes,
-    tracking_zone_start_m,
-    whole_shadow_visible,
 )
 
 APERTURE = math.radians(14.0)
@@ -383,7 +383,7 @@ def test_lead_band_target_yields_to_target_in_range(factor: float) -> None:
 
 def test_fixed_tilt_baseline() -> None:
     cfg = _config(nominal_tilt_rad=math.radians(18.0))
-    base = FixedTilt(cfg, LIMITS)
+    base = NominalTilt(cfg, LIMITS)
     state = PitchState(altitude_m=1.0, vehicle_pitch_rad=0.05, speed_m_s=0.5, current_tilt_rad=math.radians(18.0))
     cmd = base.step(state, [TrackedShadow(1, 4.0, 0.0, 0.1)])
     assert cmd.tilt_rad == pytest.approx(math.radians(18.0))
@@ -420,7 +420,7 @@ def test_closed_loop_keeps_shadows_in_view(rng: np.random.Generator, fits: bool)
         sc = random_scenario(rng, duration_s=60.0)
         cfg = _pass_config(sc.altitude_m, fits=fits)
         seed = int(rng.integers(1 << 31))
-        for name, ctl in (("mpc", PitchLoop(cfg, LIMITS)), ("fixed", FixedTilt(cfg, LIMITS))):
+        for name, ctl in (("mpc", PitchLoop(cfg, LIMITS)), ("fixed", NominalTilt(cfg, LIMITS))):
             res = simulate_pass(ctl, sc, config=cfg, limits=LIMITS, rng=np.random.default_rng(seed))
             assert res.solver_failures == 0
             totals[name][0] += res.scored_frames
@@ -736,7 +736,7 @@ def test_near_band_target_is_followed_when_it_costs_nothing() -> None:
     off = _settle(PitchLoop(off_cfg, LIMITS), state, [near])
     assert [d.reason for d in off.dropped] == [TOO_CLOSE]
     assert off.tilt_rad == pytest.approx(math.radians(12.0), abs=1e-3)
-    seen_off = FixedTilt(dataclasses.replace(off_cfg, zone_fits_aperture=False), LIMITS).step(
+    seen_off = NominalTilt(dataclasses.replace(off_cfg, zone_fits_aperture=False), LIMITS).step(
         dataclasses.replace(state, current_tilt_rad=off.tilt_rad), [near])
     assert not seen_off.margins[0].inside  # the tilt that serves the zone cuts the near shadow
 
@@ -813,7 +813,7 @@ def test_near_band_target_yields_to_a_far_target_the_prior_puts_past_the_window(
     cmd = _settle(PitchLoop(cfg, LIMITS), state, [far, near])
     # judge the far target's shadow with its true height (5 cm): seen whole
     true_far = dataclasses.replace(far, height_m=0.05)
-    judged = FixedTilt(dataclasses.replace(cfg, nominal_tilt_rad=cmd.tilt_rad), LIMITS).step(
+    judged = NominalTilt(dataclasses.replace(cfg, nominal_tilt_rad=cmd.tilt_rad), LIMITS).step(
         dataclasses.replace(state, current_tilt_rad=cmd.tilt_rad), [true_far, near])
     margin = {m.target_id: min(m.far_margin_rad, m.near_margin_rad) for m in judged.margins}
     assert margin["near"] < 0.0  # the premise: they conflict

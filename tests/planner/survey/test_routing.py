@@ -77,3 +77,15 @@ def test_passage_narrower_than_twice_the_margin() -> None:
     # still refused where the region itself is in two parts (the passage closed)
     with pytest.raises(InfeasibleError, match="separate parts"):
         Router(rooms, margin_m=1.0).route((2.0, 9.0), (28.0, 20.0))
+
+
+def test_a_diagonal_through_two_corners_is_not_free() -> None:
+    # Hypothesis counterexample: the straight hop (4, 4) -> (-1.5, -1.5) runs through the
+    # 2 m box's corners (1, 1) and (-1, -1); it crosses no edge properly and its midpoint
+    # lies outside the box, yet its middle piece lies inside.
+    obstacle = shapely.box(-1, -1, 1, 1)
+    free = shapely.box(-50, -50, 50, 50).difference(obstacle)
+    router = Router(free, margin_m=0.5)
+    assert not router.visible(np.array([[4.0, 4.0]]), np.array([[-1.5, -1.5]]))[0]
+    path = shapely.LineString(router.route((4.0, 4.0), (-1.0, -2.0)))
+    assert not path.intersects(obstacle.buffer(-1e-6))

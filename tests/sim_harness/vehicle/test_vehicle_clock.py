@@ -62,26 +62,32 @@ def test_simulator_waits_while_a_participant_works():
 
 
 def test_wait_for_wakes_on_notify_before_its_timeout():
+    # The setter is a participant too: a non-participant is not waited for, so on a busy
+    # host the simulator could run to the waiter's timeout before the setter is scheduled.
     clock = SimClock()
     flag = {"set": False}
     result = {}
-    with clock.participant("controller"):
-        sim = _run_sim(clock, 1000.0)
+    registered = threading.Event()
 
-        def setter() -> None:
-            clock.sleep_until(2.0)  # a non-participant waiting on simulated time
+    def setter() -> None:
+        with clock.participant("setter"):
+            registered.set()
+            clock.sleep_until(2.0)
             flag["set"] = True
             clock.notify()
 
-        th = threading.Thread(target=setter, daemon=True)
-        th.start()
+    th = threading.Thread(target=setter, daemon=True)
+    th.start()
+    assert registered.wait(5.0)
+    with clock.participant("controller"):
+        sim = _run_sim(clock, 1000.0)
         result["ok"] = clock.wait_for(lambda: flag["set"], timeout_s=50.0)
         result["t"] = clock.now_s()
     clock.stop()
     sim.join(5.0)
     th.join(5.0)
     assert result["ok"] is True
-    assert 2.0 <= result["t"] < 50.0
+    assert 2.0 <= result["t"] < 2.0 + STEP_S + 1e-9
 
 
 def test_wait_for_times_out_in_simulated_time():

@@ -1,0 +1,190 @@
+"""A dry-run dive: plan, start the software vehicle, fly it over real MAVLink, score it.
+
+This package is the one part of :mod:`planner` that imports :mod:`sim_harness` (with the
+CLI commands that serve the simulator: architecture.md). The controller side (executor,
+vehicle_link client, on-board perception) sees only MAVLink bytes on a UDP socket and
+sonar frames from the simulated sonar's ``poll``; simulator truth goes only to the
+scorer (:mod:`planner.dryrun.scoring`), after the dive, into ``truth.json``,
+``truth_track.csv`` and ``shadows.csv``."""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from perception.mapping.georef import LocalOrigin
+from planner.config import Settings, load_settings
+from planner.dryrun.scenario import Scenario
+from planner.dryrun.scoring import score_against_truth
+from planner.errors import ConfigError
+from planner.mission.executor import DiveResult, ExecutorConfig, MissionExecutor, TiltSource
+from planner.mission.onboard import OnboardConfig, OnboardPerception
+from planner.mission.products import summary_document, write_products
+from planner.mission.run_folder import RunFolder
+from planner.mission.safety import SafetyLimits
+from planner.survey.area import load_area
+from planner.survey.lawnmower import plan_survey
+from planner.survey.mission_files import write_outputs
+from planner.survey.plan import SurveyPlan
+from sim_harness.clock import SimClock
+from sim_harness.simulator import VehicleConfig, VehicleSimulator
+from sim_harness.sonar.renderer import SonarConfig, SonarRenderer
+from sim_harness.sonar.scene import Scene, load_scene
+from sim_harness.vehicle.dynamics import UniformCurrent
+from vehicle_link.client import ArduSubClient
+from vehicle_link.config import DEFAULT_MESSAGE_INTERVALS_S, LinkConfig
+
+#: The mount's angle report every 0.1 s (the link's default, 0.5 s, leaves the frames'
+#: tilt stamp several degrees behind while the pitch loop slews the mount).
+MOUNT_STATUS_PERIOD_S = 0.1
+
+
+@dataclass
+class DryRun:
+    """What a dry run produced (paths and figures); ``summary`` is ``summary.json``."""
+
+    out_dir: Path
+    plan: SurveyPlan
+    result: DiveResult
+    summary: dict[str, Any]
+    simulator: VehicleSimulator
+
+
+def _sonar_config(scene: Scene, settings: Settings, seed: int) -> SonarConfig:
+    sonar = settings.sonar
+    return SonarConfig(
+        window_start_m=sonar.window_start_m,
+        window_length_m=sonar.window_end_m - sonar.window_start_m,
+        samples_per_beam=sonar.samples_per_beam,
+        seed=seed,
+        fill_altitude=False,
+        **{k: v for k, v in scene.sonar.items() if k == "sound_speed_m_s"},
+    )
+
+
+def _executor_config(scenario: Scenario, settings: Settings) -> ExecutorConfig:
+    safety = SafetyLimits(min_clearance_m=settings.vehicle.min_clearance_m, depth_limit_m=settings.vehicle.max_depth_m)
+    try:
+        return ExecutorConfig(safety=safety, speed_m_s=settings.vehicle.speed_m_s,
+                              acceptance_radius_m=settings.mission.acceptance_radius_m, **scenario.executor)
+    except TypeError as exc:
+        raise ConfigError(f"unknown executor setting: {exc}", key="executor") from exc
+
+
+def make_tilt_controller(plan: SurveyPlan, settings: Settings, *, closed_loop: bool) -> TiltSource:
+    """The pitch loop (closed on the sonar) or, for the comparison, the fixed tilt that
+    centres the same tracking zone (:class:`planner.pitch.control.ZoneCentredTilt`)."""
+    from planner.pitch.control import ShadowPitchLoop, ZoneCentredTilt  # the casadi MPC, built once
+
+    if not closed_loop:
+        return ZoneCentredTilt(plan, settings)
+    return ShadowPitchLoop(plan, settings)
+
+
+def run_dry_dive(
+    scenario: Scenario,
+    out_dir: Path,
+    *,
+    progress: Callable[[float, float, str], None] | None = None,
+    write_frames: bool = False,
+) -> DryRun:
+    """Plan the scenario's survey, dry-run it against the software vehicle, write the run folder.
+
+    ``progress(sim_s, planned_s, state)`` is called every control cycle.
+    """
+    del write_frames
+    wall0 = time.perf_counter()
+    scene = load_scene(scenario.scene_path)
+    if not (math.isfinite(scene.world.origin_lat_deg) and math.isfinite(scene.world.origin_lon_deg)):
+        raise ConfigError("the scene must give an [origin] (lat_deg, lon_deg)", key="origin",
+                          path=str(scenario.scene_path))
+    origin = LocalOrigin(scene.world.origin_lat_deg, scene.world.origin_lon_deg)
+    settings = load_settings(scenario.survey_path)
+    area = load_area(scenario.area_path, origin=(origin.lat_deg, origin.lon_deg))
+    plan = plan_survey(area, settings)
+    run = RunFolder(out_dir)
+    write_outputs(plan, area, run.path("plan"))
+    run.write_json("truth.json", truth_document(scene, origin))
+
+    clock = SimClock()
+    renderer = SonarRenderer(scene.world, _sonar_config(scene, settings, scenario.seed))
+    sim = VehicleSimulator(
+        scene.world,
+        config=VehicleConfig(start_north_m=scenario.start_north_m, start_east_m=scenario.start_east_m,
+                             start_yaw_rad=scenario.start_heading_rad, seed=scenario.seed,
+                             sensors=scenario.sensors, disturbance=scenario.attitude),
+        faults=scenario.faults, clock=clock, listen="udp:127.0.0.1:0", sonar_renderer=renderer,
+        current=UniformCurrent(scenario.current_north_m_s, scenario.current_east_m_s),
+    )
+    host, port = sim.address
+    exec_config = _executor_config(scenario, settings)
+    link_config = LinkConfig(f"udpout:{host}:{port}", max_depth_m=settings.vehicle.max_depth_m,
+                             min_clearance_m=settings.vehicle.min_clearance_m,
+                             tlog_path=str(run.path("dive.tlog")), link_timeout_s=scenario.link_timeout_s,
+                             message_intervals_s=tuple(
+                                 (name, MOUNT_STATUS_PERIOD_S if name == "GIMBAL_DEVICE_ATTITUDE_STATUS" else period)
+                                 for name, period in DEFAULT_MESSAGE_INTERVALS_S),
+                             heartbeat_period_s=0.5)
+    onboard = OnboardPerception(OnboardConfig(specific_gravity=1.0))
+    tilt = make_tilt_controller(plan, settings, closed_loop=scenario.pitch_loop)
+    planned_s = sum(p.duration_s for p in plan.passes) + 60.0
+    holder: dict[str, Any] = {}
+
+    def cycle(executor: MissionExecutor) -> None:
+        now = clock.now_s()
+        if progress is not None:
+            progress(now, planned_s, executor.result.state)
+        if now - holder.get("products_s", now) > 60.0:
+            write_products(run, executor.onboard, origin)
+            holder["products_s"] = now
+
+    def fly() -> None:
+        with clock.participant("executor"):
+            client = ArduSubClient(link_config, clock=clock, on_link_lost=lambda h: executor.on_link_lost(h),
+                                   on_link_restored=lambda h: executor.on_link_restored(h))
+            executor = MissionExecutor(client, sim.sonar, plan, exec_config, run, clock, onboard, tilt=tilt,
+                                       on_cycle=cycle)
+            holder["executor"] = executor
+            client.add_listener(onboard.listener)
+            try:
+                holder["result"] = executor.run_dive()
+            finally:
+                client.close()
+
+    sim.start()
+    try:
+        pilot = threading.Thread(target=fly, name="executor")
+        pilot.start()
+        pilot.join()
+    finally:
+        sim.stop()
+    if "result" not in holder:
+        run.close()
+        raise RuntimeError("the executor thread ended without a result (see the log above)")
+    result: DiveResult = holder["result"]
+    executor = holder["executor"]
+    products = write_products(run, executor.onboard, origin, final=True,
+                              truth_points=tuple((t.north_m, t.east_m, t.height_m) for t in scene.world.targets))
+    truth_extra = score_against_truth(run, sim, settings, result, products.targets,
+                                      n_beams=renderer.config.n_beams, truth_targets=scene.world.targets,
+                                      beam_azimuth_rad=renderer.config.beam_azimuth_rad, plan=plan)
+    summary = summary_document(result, executor.onboard, wall_s=time.perf_counter() - wall0,
+                               extra={"scenario": scenario.name, **truth_extra})
+    run.write_json("summary.json", summary)
+    run.close()
+    return DryRun(Path(out_dir), plan, result, summary, sim)
+
+
+def truth_document(scene: Scene, origin: LocalOrigin) -> dict[str, Any]:
+    targets = []
+    for t in scene.world.targets:
+        lat, lon = origin.to_lat_lon(t.north_m, t.east_m)
+        targets.append({"id": t.target_id, "lat": round(float(lat), 9), "lon": round(float(lon), 9),
+                         "north_m": t.north_m, "east_m": t.east_m, "height_m": t.height_m, "shape": t.shape})
+    return {"scene": scene.name, "origin": {"lat_deg": origin.lat_deg, "lon_deg": origin.lon_deg},
+            "targets": targets}
