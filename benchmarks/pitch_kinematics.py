@@ -11,6 +11,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from perception.errors import MeasurementError
 from perception.geometry import ray_angles_sonar, sonar_to_ned
+from perception.geometry.mount import slew_toward
+from perception.geometry.shadow import shadow_scale
 from planner.errors import ConfigError
 from planner.pitch.aperture import ShadowGeometry, depression_interval_rad, shadow_geometry
 from planner.pitch.config import MountLimits, PitchLoopConfig
@@ -132,7 +134,7 @@ def whole_shadow_visible(
     """
     alt, h = geom.altitude_m, geom.height_m
     s = np.linspace(0.0, 1.0, samples)[None, :]
-    scale = 1.0 + s * (alt / (alt - h) - 1.0)[:, None]
+    scale = 1.0 + s * (shadow_scale(alt, h) - 1.0)[:, None]
     pts = [np.stack([geom.top_along_m, geom.top_cross_m, alt - h], axis=-1)[:, None, :],
            np.stack([geom.base_along_m, geom.base_cross_m, alt], axis=-1)[:, None, :],
            np.stack([geom.start_along_m, geom.start_cross_m, alt], axis=-1)[:, None, :],
@@ -254,8 +256,7 @@ def simulate_pass(
             command = cmd.tilt_rad
             cmd_t.append(float(t))
             cmd_v.append(command)
-        move = limits.max_rate_rad_s * sc.frame_period_s
-        tilt = limits.clip(tilt + min(max(command - tilt, -move), move))
+        tilt = limits.clip(slew_toward(tilt, command, max_rate_rad_s=limits.max_rate_rad_s, dt_s=sc.frame_period_s))
     return PassResult(np.asarray(times, dtype=np.float64), tilts, pitches, np.array(cmd_v), in_range, visible,
                       joint, times >= sc.settle_s, failures, np.array(cmd_t))
 

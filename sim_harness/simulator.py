@@ -46,7 +46,7 @@ from sim_harness.faults import FaultConfig
 from sim_harness.peers import BlueOsServices, LocalPeer, PeerConfig
 from sim_harness.vehicle.dynamics import (
     AttitudeDisturbance,
-    MountLimits,
+    MountMechanics,
     RovParams,
     UniformCurrent,
     slew_tilt,
@@ -89,7 +89,7 @@ class VehicleConfig:
     start_depth_m: float = 0.0
     start_yaw_rad: float = 0.0
     rov: RovParams = field(default_factory=RovParams)
-    mount: MountLimits = field(default_factory=MountLimits)
+    mount: MountMechanics = field(default_factory=MountMechanics)
     sensors: SensorConfig = field(default_factory=SensorConfig)
     disturbance: AttitudeDisturbance = field(default_factory=AttitudeDisturbance)
     autopilot: AutopilotConfig = field(default_factory=AutopilotConfig)

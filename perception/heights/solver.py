@@ -35,6 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from perception.errors import SolverError
 from perception.geometry import SeabedPlane
+from perception.geometry.shadow import height_from_shadow_m
 
 FloatArray = NDArray[np.float64]
 
@@ -128,7 +129,7 @@ def height_one_frame(r_top_m: ArrayLike, r_shadow_end_m: ArrayLike, altitude_m: 
     altitude = np.asarray(altitude_m, dtype=np.float64)
     if not np.all(np.isfinite(altitude) & (altitude > 0)):
         raise SolverError(f"altitude must be finite and > 0 m, got {altitude!r}")
-    h = altitude * (end - top) / end
+    h = height_from_shadow_m(top, end, altitude)
     return float(h) if h.ndim == 0 else h
 
 

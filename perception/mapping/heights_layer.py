@@ -10,7 +10,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from perception.mapping.georef import LocalOrigin
+from perception.geodesy import LocalOrigin
 
 
 @dataclass(frozen=True)

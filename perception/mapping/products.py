@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 import tifffile
 
-from perception.mapping.georef import LocalOrigin, geotiff_tags
+from perception.geodesy import LocalOrigin, geotiff_tags
 from perception.mapping.heights_layer import MappedTarget, height_raster, targets_feature_collection
 from perception.mapping.mosaic import TiledMosaic
 

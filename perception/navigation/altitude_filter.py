@@ -56,211 +56,37 @@ times, not from the sum of two independent variances.
 Bad input (NaN, non-positive noise or pressure, negative altitude) raises
 :class:`perception.errors.MeasurementError` before anything changes. A measurement older
 than the filter's latest step is counted as ``out_of_order`` and ignored.
-"""
+
+The module is one class over 400 lines on purpose: its updates and its smoothed queries
+share the stored filter steps, and its 60-line docstring states the whole model."""
 
 from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.stats import chi2
 
 from perception.errors import MeasurementError, OutsideWindowError
+from perception.navigation.filter_config import (
+    SENSORS,
+    AltitudeFilterConfig,
+    Estimate,
+    FloatArray,
+    SensorCounters,
+    UpdateResult,
+    finite_measurement,
+    positive_std,
+)
 from perception.navigation.pressure import (
-    FRESH_WATER_SPECIFIC_GRAVITY,
-    STANDARD_GRAVITY_M_S2,
     depth_from_pressure_m,
     pascals_per_metre,
     surface_pressure_from_samples_pa,
 )
 from perception.navigation.smoother import SAME_TIME_S, FilterStep, VerticalModel, WindowSmoother
-
-FloatArray = NDArray[np.float64]
-
-#: Sensor names, as used by the counters.
-SENSORS = ("pressure", "depth", "altimeter", "sonar")
-
-
-
-@dataclass(frozen=True)
-class AltitudeFilterConfig:
-    """Settings of :class:`AltitudeFilter` (validated on construction).
-
-    Attributes
-    ----------
-    accel_psd_m2_s3 : float
-        Power spectral density of the white vertical acceleration while holding depth,
-        m^2/s^3. Small values let the smoother average long stretches of a hold (mm
-        precision on ``dH``) but cannot follow a fast depth change; see
-        ``maneuver_accel_psd_m2_s3``.
-    maneuver_accel_psd_m2_s3 : float
-        The same while :meth:`AltitudeFilter.set_maneuvering` says the vehicle is
-        changing depth on purpose, m^2/s^3.
-    seabed_walk_psd_m2_s : float
-        Power spectral density of the seabed-depth random walk, m^2/s.
-    seabed_rate_psd_m2_s3 : float or None
-        With a value, a fourth state ``db/dt`` (the seabed slope times the ground speed,
-        m/s) follows a random walk of this PSD, m^2/s^3: for a vehicle flying over
-        sloping ground. ``None`` (default): three states, seabed depth a random walk.
-    initial_depth_std_m, initial_speed_std_m_s, initial_seabed_std_m : float
-        Prior standard deviations before any measurement (the prior mean is zero).
-    initial_seabed_rate_std_m_s : float
-        Prior standard deviation of ``db/dt`` (four-state model only).
-    gate_probability : float
-        Chi-square gate (1 degree of freedom), probability in (0, 1).
-    reinit_after : int
-        Consecutive gated rejections of one sensor after which it is believed (>= 1).
-    gate_warmup : int
-        Measurements of each sensor accepted without gating at the start (>= 0).
-    reinit_std_m : float
-        Process noise (standard deviation, m) added to the observed state at a reset.
-    reinit_speed_std_m_s : float
-        Process noise (standard deviation, m/s) added to the vertical speed at a depth
-        reset.
-    window_s : float
-        Length of the retained window, s, back from the latest step.
-    max_steps : int
-        Hard cap on retained steps (bounded memory whatever the rates).
-    max_extrapolation_s : float
-        How far past the latest step a query may predict, s.
-    surface_pressure_pa : float or None
-        Absolute pressure at the surface, Pa; ``None`` to take the median of the first
-        ``surface_samples`` pressure samples (which must then be taken at the surface).
-    surface_samples : int
-        Samples for the surface calibration when ``surface_pressure_pa`` is ``None``.
-    specific_gravity : float
-        Water specific gravity (ArduSub ``BARO_SPEC_GRAV``: fresh 1.0, sea 1.024).
-    gravity_m_s2 : float
-        Gravity for the pressure-to-depth conversion, m/s^2.
-    min_signal_quality : int
-        Altimeter readings with a known signal quality (2..100) below this are rejected
-        as ``low_quality``; 1 (MAVLink "invalid") is always rejected, 0 means unknown.
-    """
-
-    accel_psd_m2_s3: float = 1e-5
-    maneuver_accel_psd_m2_s3: float = 1e-2
-    seabed_walk_psd_m2_s: float = 1e-6
-    seabed_rate_psd_m2_s3: float | None = None
-    initial_seabed_rate_std_m_s: float = 0.1
-    initial_depth_std_m: float = 100.0
-    initial_speed_std_m_s: float = 1.0
-    initial_seabed_std_m: float = 100.0
-    gate_probability: float = 0.997
-    reinit_after: int = 5
-    gate_warmup: int = 10
-    reinit_std_m: float = 10.0
-    reinit_speed_std_m_s: float = 1.0
-    window_s: float = 120.0
-    max_steps: int = 20_000
-    max_extrapolation_s: float = 1.0
-    surface_pressure_pa: float | None = None
-    surface_samples: int = 10
-    specific_gravity: float = FRESH_WATER_SPECIFIC_GRAVITY
-    gravity_m_s2: float = STANDARD_GRAVITY_M_S2
-    min_signal_quality: int = 0
-
-    def __post_init__(self) -> None:
-        positive = {
-            "accel_psd_m2_s3": self.accel_psd_m2_s3,
-            "maneuver_accel_psd_m2_s3": self.maneuver_accel_psd_m2_s3,
-            "seabed_walk_psd_m2_s": self.seabed_walk_psd_m2_s,
-            "initial_depth_std_m": self.initial_depth_std_m,
-            "initial_speed_std_m_s": self.initial_speed_std_m_s,
-            "initial_seabed_std_m": self.initial_seabed_std_m,
-            "initial_seabed_rate_std_m_s": self.initial_seabed_rate_std_m_s,
-            "reinit_std_m": self.reinit_std_m,
-            "reinit_speed_std_m_s": self.reinit_speed_std_m_s,
-            "window_s": self.window_s,
-        }
-        if self.seabed_rate_psd_m2_s3 is not None:
-            positive["seabed_rate_psd_m2_s3"] = self.seabed_rate_psd_m2_s3
-        for name, value in positive.items():
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"AltitudeFilterConfig.{name} must be finite and > 0, got {value!r}")
-        if not (0.0 < self.gate_probability < 1.0):
-            raise ValueError(f"gate_probability must be in (0, 1), got {self.gate_probability!r}")
-        if self.reinit_after < 1 or self.max_steps < 3 or self.surface_samples < 1 or self.gate_warmup < 0:
-            raise ValueError("reinit_after >= 1, max_steps >= 3, surface_samples >= 1, gate_warmup >= 0 required")
-        if not (math.isfinite(self.max_extrapolation_s) and self.max_extrapolation_s >= 0):
-            raise ValueError(f"max_extrapolation_s must be >= 0, got {self.max_extrapolation_s!r}")
-        if not (0 <= self.min_signal_quality <= 100):
-            raise ValueError(f"min_signal_quality must be in [0, 100], got {self.min_signal_quality!r}")
-        if self.surface_pressure_pa is not None and not (
-            math.isfinite(self.surface_pressure_pa) and self.surface_pressure_pa > 0
-        ):
-            raise ValueError(f"surface_pressure_pa must be > 0 Pa, got {self.surface_pressure_pa!r}")
-        pascals_per_metre(specific_gravity=self.specific_gravity, gravity_m_s2=self.gravity_m_s2)
-
-
-class Estimate(NamedTuple):
-    """A scalar estimate: ``mean`` (m) and ``variance`` (m^2); unpacks as a pair."""
-
-    mean: float
-    variance: float
-
-    @property
-    def std(self) -> float:
-        """Standard deviation, m."""
-        return math.sqrt(max(self.variance, 0.0))
-
-
-@dataclass(frozen=True)
-class UpdateResult:
-    """What one ``update_*`` call did.
-
-    ``status`` is one of ``"accepted"``, ``"reinitialised"`` (accepted after a reset),
-    ``"gated"``, ``"out_of_order"``, ``"low_quality"``, ``"out_of_range"`` or
-    ``"calibration"`` (a surface-pressure sample). ``nis`` is the normalised innovation
-    squared (NaN when no innovation was computed).
-    """
-
-    status: str
-    nis: float = math.nan
-
-    @property
-    def accepted(self) -> bool:
-        """True when the measurement changed the state."""
-        return self.status in ("accepted", "reinitialised")
-
-
-@dataclass
-class SensorCounters:
-    """Per-sensor counts of what happened to its measurements (a snapshot when read)."""
-
-    accepted: int = 0
-    reinitialised: int = 0
-    gated: int = 0
-    out_of_order: int = 0
-    low_quality: int = 0
-    out_of_range: int = 0
-    calibration: int = 0
-
-    @property
-    def rejected(self) -> int:
-        """All measurements that did not change the state (calibration excluded)."""
-        return self.gated + self.out_of_order + self.low_quality + self.out_of_range
-
-
-def _finite(value: float, what: str, sensor: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise MeasurementError(f"{what} must be a number, got {value!r}", sensor=sensor, value=value) from exc
-    if not math.isfinite(v):
-        raise MeasurementError(f"{what} must be finite, got {value!r}", sensor=sensor, value=value)
-    return v
-
-
-def _std(std_m: float, sensor: str) -> float:
-    s = _finite(std_m, "noise standard deviation", sensor)
-    if s <= 0:
-        raise MeasurementError(f"noise standard deviation must be > 0, got {std_m!r}", sensor=sensor, value=std_m)
-    return s
 
 
 class AltitudeFilter:
@@ -378,11 +204,11 @@ class AltitudeFilter:
         std_pa : float
             Its noise standard deviation, Pa (> 0).
         """
-        t = _finite(time_s, "time", "pressure")
-        p = _finite(absolute_pressure_pa, "absolute pressure", "pressure")
+        t = finite_measurement(time_s, "time", "pressure")
+        p = finite_measurement(absolute_pressure_pa, "absolute pressure", "pressure")
         if p <= 0:
             raise MeasurementError(f"absolute pressure must be > 0 Pa, got {p!r}", sensor="pressure", value=p)
-        s = _std(std_pa, "pressure")
+        s = positive_std(std_pa, "pressure")
         if self._surface_pressure_pa is None:
             self._surface_samples.append(p)
             self._counters["pressure"].calibration += 1
@@ -425,9 +251,9 @@ class AltitudeFilter:
             The sensor's valid span; readings outside it are rejected as
             ``out_of_range`` (a reading at the maximum means "no bottom").
         """
-        t = _finite(time_s, "time", "altimeter")
-        a = _finite(altitude_m, "altitude", "altimeter")
-        _std(std_m, "altimeter")
+        t = finite_measurement(time_s, "time", "altimeter")
+        a = finite_measurement(altitude_m, "altitude", "altimeter")
+        positive_std(std_m, "altimeter")
         if a < 0:
             raise MeasurementError(f"altitude must be >= 0 m, got {a!r}", sensor="altimeter", value=a)
         if signal_quality is not None:
@@ -449,8 +275,8 @@ class AltitudeFilter:
 
     def update_sonar_altitude(self, time_s: float, altitude_m: float, std_m: float) -> UpdateResult:
         """Altitude measured from a sonar frame (see :mod:`perception.navigation.seabed_start`), m."""
-        t = _finite(time_s, "time", "sonar")
-        a = _finite(altitude_m, "altitude", "sonar")
+        t = finite_measurement(time_s, "time", "sonar")
+        a = finite_measurement(altitude_m, "altitude", "sonar")
         return self._altitude("sonar", t, a, std_m)
 
     def _altitude(self, sensor: str, time_s: float, altitude_m: float, std_m: float) -> UpdateResult:
@@ -459,9 +285,9 @@ class AltitudeFilter:
         return self._update(sensor, time_s, altitude_m, std_m, altitude=True)
 
     def _update(self, sensor: str, time_s: float, z_m: float, std_m: float, *, altitude: bool) -> UpdateResult:
-        t = _finite(time_s, "time", sensor)
-        z = _finite(z_m, "measurement", sensor)
-        r = _std(std_m, sensor) ** 2
+        t = finite_measurement(time_s, "time", sensor)
+        z = finite_measurement(z_m, "measurement", sensor)
+        r = positive_std(std_m, sensor) ** 2
         counters = self._counters[sensor]
         c = self.config
         kf = self._kf

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from perception.mapping.georef import LocalOrigin
+from perception.geodesy import LocalOrigin
 from perception.mapping.mosaic import MosaicConfig
 from perception.mapping.products import write_geotiff, write_png_with_world_file, write_targets_geojson
 from perception.mapping.registration import RegistrationConfig

@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from perception.mapping.georef import LocalOrigin
+from perception.geodesy import LocalOrigin
 from planner.config import default_settings, load_settings
 from planner.errors import UsageError
 from planner.mission.executor import ExecutorConfig, MissionExecutor, PlanTilt

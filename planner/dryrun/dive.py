@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from perception.mapping.georef import LocalOrigin
+from perception.geodesy import LocalOrigin
 from planner.config import Settings, load_settings
 from planner.dryrun.scenario import Scenario
 from planner.dryrun.scoring import score_against_truth

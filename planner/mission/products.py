@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from perception.mapping.georef import LocalOrigin
+from perception.geodesy import LocalOrigin
 from perception.mapping.heights_layer import MappedTarget
 from perception.mapping.products import (
     MapRaster,

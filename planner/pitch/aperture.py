@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from perception.errors import GeometryError
+from perception.geometry.shadow import clamp_height_m, shadow_end_slant_m
 from planner.pitch.types import FloatArray
 
 
@@ -78,7 +79,7 @@ def tracking_zone_start_m(
         shallow = np.arcsin(np.minimum(1.0, alt / window_end_m))
         steep = shallow + elevation_aperture_rad - 2.0 * margin_rad
         slant = alt / np.sin(np.minimum(steep, math.pi / 2))
-        below = alt - np.minimum(height_m, 0.95 * alt)
+        below = alt - clamp_height_m(height_m, alt)
         fit = np.where(steep >= math.pi / 2, 0.0, np.sqrt(np.maximum(0.0, slant**2 - below**2)))
     if not fit_aperture:
         fit = np.zeros_like(fit)
@@ -175,7 +176,7 @@ def shadow_geometry(
         shrink = np.where(g > 0, np.maximum(g - f, 0.0) / np.where(g > 0, g, 1.0), 0.0)
     bx, by = x * shrink, y * shrink
     r_top = np.sqrt(g**2 + (alt - h) ** 2)
-    end = r_top * alt / (alt - h)
+    end = shadow_end_slant_m(r_top, alt, h)
     near = np.minimum(np.minimum(r_top, np.sqrt(g**2 + alt**2)), np.sqrt(bx**2 + by**2 + alt**2))
     # The seabed at the top edge's slant range: ground sqrt(r_top^2 - H^2) on the same bearing.
     with np.errstate(divide="ignore", invalid="ignore"):

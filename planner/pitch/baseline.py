@@ -8,6 +8,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from perception.geometry.mount import slew_toward
 from planner.pitch.config import MountLimits, PitchLoopConfig
 from planner.pitch.selection import select_shadows, served_margins
 from planner.pitch.types import PitchCommand, PitchState, TrackedShadow
@@ -24,9 +25,8 @@ class NominalTilt:
         """Return the nominal tilt, with the margins and drops it implies."""
         cfg, lim = self.config, self.limits
         target = lim.clip(cfg.nominal_tilt_rad)
-        step_max = lim.max_rate_rad_s * cfg.dt_s
-        t0 = lim.clip(state.current_tilt_rad)
-        tilt = min(max(target, t0 - step_max), t0 + step_max)
+        tilt = slew_toward(lim.clip(state.current_tilt_rad), target, max_rate_rad_s=lim.max_rate_rad_s,
+                           dt_s=cfg.dt_s)
         served, dropped, low, up, _, pred = select_shadows(state, shadows, cfg, lim, 0.0)
         idx = [i for i, _ in served]
         slack = float(np.sum(np.fmax(0.0, low[idx, 1] - tilt)) + np.sum(np.fmax(0.0, tilt - up[idx, 1])))

@@ -26,6 +26,8 @@ import math
 from collections import deque
 from dataclasses import replace
 
+from perception.geometry.mount import slew_toward
+from perception.geometry.shadow import clamp_height_m, shadow_end_slant_m
 from perception.heights.pipeline import TargetHeight
 from perception.mapping.survey_map import SAME_TARGET_RADIUS_M
 from planner.config import Settings
@@ -89,8 +91,7 @@ class ShadowPitchLoop:
                 tilt = cmd
                 continue
             until = min(items[k + 1][0], time_s) if k + 1 < len(items) else time_s
-            move = self.mount.max_rate_rad_s * max(until - t_k, 0.0)
-            tilt += min(max(cmd - tilt, -move), move)
+            tilt = slew_toward(tilt, cmd, max_rate_rad_s=self.mount.max_rate_rad_s, dt_s=until - t_k)
         return tilt
 
     def record_command(self, time_s: float, tilt_rad: float) -> None:
@@ -125,7 +126,7 @@ class ShadowPitchLoop:
                     longest = [r_end if math.isfinite(r_end) else 0.0]
                     for h in (known, self.height_min_m):
                         if h is not None and math.isfinite(h) and 0.0 <= h < alt:
-                            longest.append(m.r_top_m * alt / (alt - h))
+                            longest.append(shadow_end_slant_m(m.r_top_m, alt, h))
                     r_end = max(longest)
                 if not math.isfinite(r_end):
                     continue
@@ -181,7 +182,10 @@ class ShadowPitchLoop:
 
         ``speed_m_s`` is the speed the vehicle is asked to fly: the measured speed lags
         (a window of positions reported late), so while the vehicle is below it the
-        prediction takes ``accel_lead_m_s`` more, up to it; without a history, it."""
+        prediction takes ``accel_lead_m_s`` more, up to it, and while above it (braking
+        for a waypoint) as much less, down to it; without a history, it
+        (``tests/planner/pitch/test_prediction_vs_simulator.py`` checks this against the
+        simulator's dynamics)."""
         nav = onboard.nav
         if nav is None:
             return speed_m_s, 0.0
@@ -193,8 +197,10 @@ class ShadowPitchLoop:
         if all(math.isfinite(v) for v in (nav.north_m, nav.east_m, before.north_m, before.east_m, nav.heading_rad)):
             speed = max(0.0, ((nav.north_m - before.north_m) * math.cos(nav.heading_rad)
                               + (nav.east_m - before.east_m) * math.sin(nav.heading_rad)) / dt)
-            if speed < speed_m_s:
-                speed = min(speed_m_s, speed + self.accel_lead_m_s)
+            # The measured speed lags the vehicle either way: ahead of the commanded speed
+            # by up to the lead (accelerating or braking), never past it.
+            speed = min(speed_m_s, speed + self.accel_lead_m_s) if speed < speed_m_s \
+                else max(speed_m_s, speed - self.accel_lead_m_s)
         rate = (nav.pitch_rad - before.pitch_rad) / dt if math.isfinite(nav.pitch_rad - before.pitch_rad) else 0.0
         return speed, rate
 
@@ -264,7 +270,7 @@ def describe_zone(config: PitchLoopConfig, altitude_m: float) -> dict[str, float
     """
     w1 = float(config.window_m[1])
     start = float(config.zone_start_m(altitude_m))
-    h = min(config.height_prior_m, 0.95 * altitude_m)
+    h = float(clamp_height_m(config.height_prior_m, altitude_m))
     shallow = math.asin(min(1.0, altitude_m / w1))
     steep = math.asin(min(1.0, altitude_m / math.hypot(start, altitude_m - h))) if math.isfinite(start) else math.nan
     return {

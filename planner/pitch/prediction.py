@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from perception.errors import GeometryError
+from perception.geometry.shadow import clamp_height_m
 from planner.pitch.aperture import ShadowGeometry, depression_interval_rad, shadow_geometry
 from planner.pitch.config import MountLimits, PitchLoopConfig
 from planner.pitch.types import (
@@ -70,7 +71,7 @@ def predict_horizon(state: PitchState, shadows: Sequence[TrackedShadow], config:
     geoms = []
     for prior in (config.height_prior_m, config.height_min_m):
         height = np.array([[prior if s.height_m is None else s.height_m] for s in shadows]).reshape(-1, 1)
-        height = np.minimum(height, 0.95 * alt.min())  # a height up to the altitude: clamp
+        height = clamp_height_m(height, alt.min())  # a height up to the altitude: clamp
         geoms.append(shadow_geometry(along, cross, height, foot, alt))
     return HorizonPrediction(np.asarray(t, dtype=np.float64), predict_pitch_rad(state, config),
                              np.asarray(alt, dtype=np.float64), geoms[0], geoms[1])
@@ -134,7 +135,7 @@ def search_band_rad(pred: HorizonPrediction, config: PitchLoopConfig) -> tuple[F
     alt = pred.altitude_m
     w1 = config.window_m[1]
     half = config.elevation_aperture_rad / 2 - config.margin_rad
-    h = np.minimum(config.height_prior_m, 0.95 * alt)
+    h = clamp_height_m(config.height_prior_m, alt)
     reach = w1 > alt
     with np.errstate(divide="ignore", invalid="ignore"):
         hi = np.where(reach, np.arcsin(np.minimum(1.0, alt / w1)) + half, np.inf)

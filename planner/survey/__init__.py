@@ -5,9 +5,7 @@ from planner.survey.area import (
     SurveyArea,
     area_from_geojson,
     area_to_geojson,
-    geodetic_to_local,
     load_area,
-    local_to_geodetic,
 )
 from planner.survey.footprint import exact_footprint_body, footprint, seen_mask, swept_polygon
 from planner.survey.lawnmower import choose_heading, free_region, lane_pieces, plan_survey
@@ -44,11 +42,9 @@ __all__ = [
     "exact_footprint_body",
     "footprint",
     "free_region",
-    "geodetic_to_local",
     "lane_pieces",
     "load_area",
     "load_plan",
-    "local_to_geodetic",
     "mission_items",
     "plan_geojson",
     "plan_survey",

@@ -43,6 +43,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from perception.geometry.shadow import shadow_end_slant_m, shadow_scale
 from planner.config import Settings
 from planner.errors import InfeasibleError
 
@@ -116,7 +117,7 @@ class AltitudeChoice:
 def shadow_length_m(altitude_m: Any, height_m: Any, ground_m: Any, sqrt: Callable = np.sqrt) -> Any:
     """Shadow length in slant range, ``r_s - r_top``, m (numpy or casadi arguments)."""
     r_top = sqrt(ground_m * ground_m + (altitude_m - height_m) ** 2)
-    return r_top * height_m / (altitude_m - height_m)
+    return shadow_end_slant_m(r_top, altitude_m, height_m) - r_top
 
 
 def shadow_slope(altitude_m: Any, height_m: Any, ground_m: Any, sqrt: Callable = np.sqrt) -> Any:
@@ -144,7 +145,7 @@ def _constraints(
     for k, (altitude, tilt) in enumerate(((h1, t1), (h1 + dh, t2)), start=1):
         h_max = heights[1]
         r_top = sqrt(g * g + (altitude - h_max) ** 2)
-        r_s = r_top * altitude / (altitude - h_max)
+        r_s = shadow_end_slant_m(r_top, altitude, h_max)
         seabed_slant = sqrt(g * g + altitude * altitude)
         out += [
             (f"window_start_pass{k}", r_top - sonar.window_start_m - margin),
@@ -248,7 +249,7 @@ def _centre_tilts(settings: Settings, x0: np.ndarray, tau: float) -> np.ndarray 
     h_max = settings.site.target_height_max_m
     miss = ca.SX(0.0)
     for altitude, tilt in ((x[0], x[2]), (x[0] + x[1], x[3])):
-        g_mid = x[4] * (1.0 + altitude / (altitude - h_max)) / 2.0  # middle of the shadow
+        g_mid = x[4] * (1.0 + shadow_scale(altitude, h_max)) / 2.0  # middle of the shadow
         miss += (tilt - ca.atan2(altitude, g_mid)) ** 2
     keep = tau - 1e-6 * abs(tau) - 1e-9
     g_expr = ca.vertcat(*[c for _, c in cons], *[t - keep for t in terms],

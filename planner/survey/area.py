@@ -2,7 +2,7 @@
 
 Inside the planner everything is in a local tangent plane about a stated origin, as
 shapely coordinates ``(x, y) = (east_m, north_m)``; NED waypoints are
-``(north_m, east_m)``. Geodesy happens only here (pymap3d, WGS84 ellipsoid, the plane
+``(north_m, east_m)``. Geodesy happens only here, through :mod:`perception.geodesy` (pymap3d, WGS84 ellipsoid, the plane
 at height 0 at the origin).
 
 Input file (GeoJSON, RFC 7946): a FeatureCollection, a Feature or a bare Polygon.
@@ -25,10 +25,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pymap3d
 import shapely
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
+from perception.geodesy import LocalOrigin
 from planner.errors import AreaError
 
 
@@ -68,29 +68,10 @@ class SurveyArea:
         return self.outer.difference(self.obstacles) if self.keepouts or self.boundary.interiors \
             else self.boundary
 
-    def to_geodetic(self, east_m: ArrayLike, north_m: ArrayLike) -> tuple[NDArray, NDArray]:
-        """Local plane to WGS84 ``(lat_deg, lon_deg)`` arrays."""
-        return local_to_geodetic(east_m, north_m, self.origin_lat_deg, self.origin_lon_deg)
-
-
-def local_to_geodetic(
-    east_m: ArrayLike, north_m: ArrayLike, lat0_deg: float, lon0_deg: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Local tangent plane ``(east_m, north_m)`` to WGS84 ``(lat_deg, lon_deg)``."""
-    e = np.asarray(east_m, dtype=float)
-    n = np.asarray(north_m, dtype=float)
-    lat, lon, _ = pymap3d.enu2geodetic(e, n, np.zeros_like(e), lat0_deg, lon0_deg, 0.0)
-    return np.asarray(lat, dtype=float), np.asarray(lon, dtype=float)
-
-
-def geodetic_to_local(
-    lat_deg: ArrayLike, lon_deg: ArrayLike, lat0_deg: float, lon0_deg: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """WGS84 ``(lat_deg, lon_deg)`` to the local tangent plane ``(east_m, north_m)``."""
-    lat = np.asarray(lat_deg, dtype=float)
-    lon = np.asarray(lon_deg, dtype=float)
-    e, n, _ = pymap3d.geodetic2enu(lat, lon, np.zeros_like(lat), lat0_deg, lon0_deg, 0.0)
-    return np.asarray(e, dtype=float), np.asarray(n, dtype=float)
+    @property
+    def origin(self) -> LocalOrigin:
+        """The origin of the local frame (the product's one geodesy, :mod:`perception.geodesy`)."""
+        return LocalOrigin(self.origin_lat_deg, self.origin_lon_deg)
 
 
 #: Features the reader skips: the planner's own outputs and non-area geometries.
@@ -200,7 +181,7 @@ def area_from_geojson(
         for rings in rings_xy:
             conv = []
             for r in rings:
-                e, n = geodetic_to_local(r[:, 1], r[:, 0], lat0, lon0)
+                n, e = LocalOrigin(lat0, lon0).to_local(r[:, 1], r[:, 0])
                 conv.append(np.column_stack([e, n]))
             planar.append(conv)
     if not (-90 <= lat0 <= 90 and -180 <= lon0 <= 180):
@@ -237,7 +218,7 @@ def area_to_geojson(area: SurveyArea) -> dict[str, Any]:
 
     def ring(coords: Any) -> list[list[float]]:
         xy = np.asarray(coords)
-        lat, lon = area.to_geodetic(xy[:, 0], xy[:, 1])
+        lat, lon = area.origin.to_lat_lon(xy[:, 1], xy[:, 0])
         return [[round(float(a), 9), round(float(b), 9)] for a, b in zip(lon, lat, strict=True)]
 
     def poly(p: shapely.Polygon) -> dict[str, Any]:

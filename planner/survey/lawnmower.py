@@ -352,7 +352,7 @@ def plan_survey(
         beyond = line.difference(area.outer)  # only the parts outside can be far from it
         dense = shapely.get_coordinates(shapely.segmentize(beyond, 1.0))
         outside = shapely.distance(area.outer, shapely.points(dense)) if len(dense) else np.zeros(0)
-        lat, lon = area.to_geodetic(path[:, 0], path[:, 1])
+        lat, lon = area.origin.to_lat_lon(path[:, 1], path[:, 0])
         depth = depth_of - fp.altitude_m
         wps = tuple(
             PlanWaypoint(float(n), float(e), float(la), float(lo), fp.altitude_m, depth, kd, ln)

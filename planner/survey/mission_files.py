@@ -154,7 +154,7 @@ def plan_geojson(plan: SurveyPlan, area: SurveyArea, *, footprint_every: int = 1
             shapes.append(({"role": "footprint", "pass": p.name, "lane": r.lane}, "Polygon", ring))
     # One geodetic conversion for every vertex, then split back per feature.
     allxy = np.vstack([xy for _, _, xy in shapes])
-    lat, lon = area.to_geodetic(allxy[:, 0], allxy[:, 1])
+    lat, lon = area.origin.to_lat_lon(allxy[:, 1], allxy[:, 0])
     lonlat = np.round(np.column_stack([lon, lat]), 9).tolist()
     feats = list(doc["features"])
     at = 0

@@ -2,9 +2,9 @@
 
 from sim_harness.autopilot.autopilot import Autopilot, AutopilotConfig
 from sim_harness.autopilot.guidance import Mode
+from sim_harness.autopilot.location import latlon_to_ned, ned_to_latlon
 from sim_harness.autopilot.mavlink_endpoint import LinkAddress, MavlinkPort, open_transport
 from sim_harness.autopilot.mission import REREQUEST_INTERVAL_S, UPLOAD_TIMEOUT_S
-from sim_harness.autopilot.telemetry import latlon_to_ned, ned_to_latlon
 
 __all__ = [
     "Autopilot",

@@ -60,7 +60,7 @@ from sim_harness.autopilot.telemetry import (
     build_message,
 )
 from sim_harness.faults import FaultConfig
-from sim_harness.vehicle.dynamics import MountLimits, RovParams
+from sim_harness.vehicle.dynamics import MountMechanics, RovParams
 from sim_harness.vehicle.sensors import SensorReadings
 
 __all__ = ["Autopilot", "AutopilotConfig", "Mode"]
@@ -100,7 +100,7 @@ class AutopilotConfig:
 class Autopilot:
     """The simulated flight controller."""
 
-    def __init__(self, config: AutopilotConfig, rov: RovParams, mount: MountLimits, faults: FaultConfig) -> None:
+    def __init__(self, config: AutopilotConfig, rov: RovParams, mount: MountMechanics, faults: FaultConfig) -> None:
         self.cfg = config
         self.rov = rov
         self.mount_limits = mount

@@ -28,7 +28,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from sim_harness.autopilot.telemetry import latlon_to_ned, ned_to_latlon
+from sim_harness.autopilot.location import latlon_to_ned, ned_to_latlon
 from sim_harness.vehicle.sensors import SensorReadings
 
 

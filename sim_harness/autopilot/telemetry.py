@@ -16,10 +16,9 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from sim_harness.autopilot.location import latlon_to_ned, ned_to_latlon
 from sim_harness.autopilot.sensor_status import SensorFlags
 from sim_harness.vehicle.sensors import SensorReadings
-
-EARTH_RADIUS_M = 6378137.0
 
 #: ArduSub stream groups (``STREAM_*_msgs``): parameter name -> the simulated message ids.
 STREAMS: dict[str, tuple[int, ...]] = {
@@ -97,30 +96,6 @@ class TelemetrySnapshot:
     sensors: SensorFlags
     position_ok: bool
     mount_status: mavlink.MAVLink_message | None
-
-
-def ned_to_latlon(
-    north_m: float, east_m: float, origin_lat_deg: float, origin_lon_deg: float
-) -> tuple[float, float]:
-    """Local NED metres -> (lat_deg, lon_deg), flat-earth about the origin."""
-    lat = origin_lat_deg + math.degrees(north_m / EARTH_RADIUS_M)
-    lon = origin_lon_deg + math.degrees(
-        east_m / (EARTH_RADIUS_M * math.cos(math.radians(origin_lat_deg)))
-    )
-    return lat, lon
-
-
-def latlon_to_ned(
-    lat_deg: float, lon_deg: float, origin_lat_deg: float, origin_lon_deg: float
-) -> tuple[float, float]:
-    """(lat_deg, lon_deg) -> local (north_m, east_m), flat-earth about the origin."""
-    north = math.radians(lat_deg - origin_lat_deg) * EARTH_RADIUS_M
-    east = (
-        math.radians(lon_deg - origin_lon_deg)
-        * EARTH_RADIUS_M
-        * math.cos(math.radians(origin_lat_deg))
-    )
-    return north, east
 
 
 class TelemetryScheduler:

@@ -2,11 +2,10 @@
 
 from sim_harness.vehicle.dynamics import (
     AttitudeDisturbance,
-    MountLimits,
+    MountMechanics,
     RovParams,
     UniformCurrent,
     derivative,
-    derivative_casadi,
     slew_tilt,
     step_rk4,
 )
@@ -15,7 +14,7 @@ from sim_harness.vehicle.sensors import FlatSeabed, SeabedWorld, SensorConfig, S
 __all__ = [
     "AttitudeDisturbance",
     "FlatSeabed",
-    "MountLimits",
+    "MountMechanics",
     "RovParams",
     "SeabedWorld",
     "SensorConfig",
@@ -24,7 +23,6 @@ __all__ = [
     "SlopedSeabed",
     "UniformCurrent",
     "derivative",
-    "derivative_casadi",
     "slew_tilt",
     "step_rk4",
 ]

@@ -18,8 +18,11 @@ the water, a small net buoyancy, and Coriolis coupling between surge/sway and ya
 Pitch and roll are not states: they are disturbances (see :class:`AttitudeDisturbance`).
 
 :func:`rate_terms` is written with ``sin``/``cos``/``fabs`` passed in, so the same
-equations serve numpy (:func:`derivative`), plain floats (:func:`step_rk4`, fast in the
-simulator loop) and casadi (:func:`derivative_casadi`, for the controller's prediction).
+equations serve numpy (:func:`derivative`) and plain floats (:func:`step_rk4`, fast in
+the simulator loop). The controller does not share this model: the pitch loop predicts
+with its own kinematic one (:mod:`planner.pitch.prediction`), and
+``tests/planner/pitch/test_prediction_vs_simulator.py`` checks that prediction against
+this model's trajectories.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from perception.geometry.mount import slew_toward
 from sim_harness.errors import SimConfigError
 
 STATE_SIZE = 8
@@ -158,18 +162,6 @@ def derivative(
         raise ValueError(f"current must have shape (3,), got {cur.shape}")
     tau = saturate_thrust(t, p)
     return np.array(rate_terms(x, tau, cur, p, np.sin, np.cos, np.abs), dtype=float)
-
-
-def derivative_casadi(state: Any, thrust: Any, current: Any, params: RovParams | None = None) -> Any:
-    """The same model as :func:`derivative` for casadi SX/MX symbols (8x1 result).
-
-    Thrust is not saturated here: an optimiser states the limits as constraints.
-    """
-    import casadi
-
-    p = params or RovParams()
-    terms = rate_terms(state, thrust, current, p, casadi.sin, casadi.cos, casadi.fabs)
-    return casadi.vertcat(*terms)
 
 
 def step_rk4(
@@ -304,7 +296,7 @@ class AttitudeDisturbance:
 
 
 @dataclass(frozen=True)
-class MountLimits:
+class MountMechanics:
     """Tilt mount: angle limits and slew rate (tilt positive down, radians)."""
 
     min_tilt_rad: float = math.radians(-30.0)
@@ -325,8 +317,6 @@ class MountLimits:
         return min(max(tilt_rad, self.min_tilt_rad), self.max_tilt_rad)
 
 
-def slew_tilt(current_rad: float, target_rad: float, dt_s: float, limits: MountLimits) -> float:
+def slew_tilt(current_rad: float, target_rad: float, dt_s: float, limits: MountMechanics) -> float:
     """Move the mount from ``current_rad`` towards the clamped target at most at the rate limit."""
-    target = limits.clamp(target_rad)
-    step = limits.max_rate_rad_s * dt_s
-    return current_rad + min(max(target - current_rad, -step), step)
+    return slew_toward(current_rad, limits.clamp(target_rad), max_rate_rad_s=limits.max_rate_rad_s, dt_s=dt_s)

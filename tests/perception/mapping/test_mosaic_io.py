@@ -14,8 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rasterio.warp import transform as warp_transform
 
+from perception.geodesy import LocalOrigin
 from perception.mapping.builder import MosaicBuilder
-from perception.mapping.georef import LocalOrigin
 from perception.mapping.heights_layer import MappedTarget, height_raster, targets_feature_collection
 from perception.mapping.mosaic import MosaicConfig
 from perception.mapping.products import (

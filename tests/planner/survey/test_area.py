@@ -12,14 +12,13 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from perception.geodesy import LocalOrigin
 from planner.errors import AreaError
 from planner.survey.area import (
     SurveyArea,
     area_from_geojson,
     area_to_geojson,
-    geodetic_to_local,
     load_area,
-    local_to_geodetic,
 )
 
 
@@ -89,14 +88,15 @@ def test_random_areas_round_trip_through_wgs84_geojson(radii: list[float], lat0:
        lon0=st.floats(-179, 179))
 @settings(max_examples=60, deadline=None)
 def test_local_geodetic_round_trip(e: float, n: float, lat0: float, lon0: float) -> None:
-    lat, lon = local_to_geodetic([e], [n], lat0, lon0)
-    e2, n2 = geodetic_to_local(lat, lon, lat0, lon0)
+    origin = LocalOrigin(lat0, lon0)
+    lat, lon = origin.to_lat_lon([n], [e])
+    n2, e2 = origin.to_local(lat, lon)
     # The tangent plane curves away from the ellipsoid: millimetres over 5 km.
     assert abs(e2[0] - e) < 5e-3 and abs(n2[0] - n) < 5e-3
 
 
 def test_a_north_step_is_a_latitude_step() -> None:
-    lat, lon = local_to_geodetic([0.0], [1000.0], 0.0, 0.0)
+    lat, lon = LocalOrigin(0.0, 0.0).to_lat_lon([1000.0], [0.0])
     # One arc-minute of latitude at the equator is ~1842.9 m.
     assert (lat[0] * 60) * 1842.9 == pytest.approx(1000.0, rel=1e-3)
     assert lon[0] == pytest.approx(0.0, abs=1e-12)

@@ -115,7 +115,7 @@ def _check(area: SurveyArea, plan: SurveyPlan, stay_inside: bool) -> None:
             assert w.altitude_m >= clearance
             assert w.depth_m <= SETTINGS.vehicle.max_depth_m
             assert w.depth_m + w.altitude_m == pytest.approx(SETTINGS.site.water_depth_m)
-        lat, lon = area.to_geodetic([p.waypoints[0].east_m], [p.waypoints[0].north_m])
+        lat, lon = area.origin.to_lat_lon([p.waypoints[0].north_m], [p.waypoints[0].east_m])
         assert lat[0] == pytest.approx(p.waypoints[0].lat_deg, abs=1e-12)
         assert lon[0] == pytest.approx(p.waypoints[0].lon_deg, abs=1e-12)
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import math
 
 from sim_harness.autopilot.autopilot import Mode
-from sim_harness.vehicle.dynamics import AttitudeDisturbance, MountLimits
+from sim_harness.vehicle.dynamics import AttitudeDisturbance, MountMechanics
 from tests.sim_harness.autopilot.gcs_peer import M, running_vehicle, vehicle_config
 
-LIMITS = MountLimits(min_tilt_rad=math.radians(-20), max_tilt_rad=math.radians(60),
+LIMITS = MountMechanics(min_tilt_rad=math.radians(-20), max_tilt_rad=math.radians(60),
                      max_rate_rad_s=math.radians(20), default_tilt_rad=math.radians(10))
 #: No waves, no thrust pitch: a level vehicle (the body-frame servo angle is the target).
 LEVEL = AttitudeDisturbance(pitch_amplitude_rad=0.0, roll_amplitude_rad=0.0, pitch_per_surge_rad_n=0.0)

@@ -4,39 +4,22 @@ from __future__ import annotations
 
 import math
 
-import casadi
 import numpy as np
 import pytest
-from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim_harness.errors import SimConfigError
 from sim_harness.vehicle.dynamics import (
-    MountLimits,
+    MountMechanics,
     RovParams,
     UniformCurrent,
     derivative,
-    derivative_casadi,
     slew_tilt,
     step_rk4,
 )
 
 P = RovParams()
 finite = st.floats(-3.0, 3.0, allow_nan=False)
-
-
-@settings(max_examples=60, deadline=None)
-@given(st.lists(finite, min_size=8, max_size=8), st.lists(finite, min_size=4, max_size=4),
-       st.lists(finite, min_size=3, max_size=3))
-def test_numpy_and_casadi_models_agree(state, thrust_frac, current):
-    thrust = np.array(thrust_frac) / 3.0 * np.array(P.thrust_limits)  # within limits
-    x = casadi.SX.sym("x", 8)
-    u = casadi.SX.sym("u", 4)
-    c = casadi.SX.sym("c", 3)
-    f = casadi.Function("f", [x, u, c], [derivative_casadi(x, u, c, P)])
-    expected = derivative(np.array(state), thrust, np.array(current), P)
-    got = np.array(f(state, thrust, current)).ravel()
-    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
 
 
 def _steady(thrust, current=(0.0, 0.0, 0.0), seconds=60.0):
@@ -72,7 +55,7 @@ def test_yaw_rate_turns_the_body_velocity_into_the_ned_frame():
 
 
 def test_mount_slews_at_its_rate_and_stops_at_its_limit():
-    lim = MountLimits(max_rate_rad_s=math.radians(10.0))
+    lim = MountMechanics(max_rate_rad_s=math.radians(10.0))
     tilt = 0.0
     for _ in range(50):  # 1 s
         tilt = slew_tilt(tilt, math.radians(200.0), 0.02, lim)
@@ -88,5 +71,5 @@ def test_bad_shapes_and_params_are_refused():
     with pytest.raises(SimConfigError, match="mass_surge_kg"):
         RovParams(mass_surge_kg=0.0)
     with pytest.raises(SimConfigError):
-        MountLimits(min_tilt_rad=1.0, max_tilt_rad=0.5)
+        MountMechanics(min_tilt_rad=1.0, max_tilt_rad=0.5)
     assert UniformCurrent(0.1).velocity_ned_m_s(0, 0, 0, 0) == (0.1, 0.0, 0.0)
