@@ -213,14 +213,17 @@ def _c_int(value: float, lo: int, hi: int) -> int:
     return int(min(max(math.trunc(value), lo), hi))
 
 
-def ardusub_stored(item: MissionItem) -> StoredItem:
+def ardusub_stored(item: MissionItem, *, downloaded: bool = False) -> StoredItem:
     """``item`` as ArduSub 4.5 stores it (libraries/AP_Mission/AP_Mission.cpp
-    ``mavlink_int_to_mission_cmd``); apply it to what was sent *and* to what was read back,
-    then compare."""
+    ``mavlink_int_to_mission_cmd``): apply it to what was sent, and with ``downloaded`` to
+    what was read back, then compare. A download carries ``alt_cm * 0.01f``
+    (``mission_cmd_to_mavlink_int``), which is not always above the whole centimetre (99
+    cm comes back as 0.98999995 m), so a downloaded altitude is rounded, not truncated."""
     p1, p2, p3, p4 = item.param1, item.param2, item.param3, item.param4
     command = item.command
     if item.frame in _FRAME_FAMILY:
-        alt_cm = _c_int(float(np.float32(item.altitude_m) * np.float32(100.0)), -(2**31), 2**31 - 1)
+        cm = float(np.float32(item.altitude_m) * np.float32(100.0))
+        alt_cm = int(round(cm)) if downloaded and math.isfinite(cm) else _c_int(cm, -(2**31), 2**31 - 1)
         lat, lon = units.deg_to_dege7(item.latitude_deg), units.deg_to_dege7(item.longitude_deg)
         frame = _FRAME_FAMILY[item.frame]
     else:
@@ -240,8 +243,8 @@ def ardusub_stored(item: MissionItem) -> StoredItem:
 
 
 def items_match(sent: MissionItem, got: MissionItem) -> bool:
-    """True if ArduSub stores ``sent`` and ``got`` alike (see :func:`ardusub_stored`)."""
-    a, b = ardusub_stored(sent), ardusub_stored(got)
+    """True if ``got`` (read back) is what ArduSub stores of ``sent`` (see :func:`ardusub_stored`)."""
+    a, b = ardusub_stored(sent), ardusub_stored(got, downloaded=True)
     def key(x: StoredItem) -> tuple[int, ...]:
         return (x.command, x.frame, x.lat_e7, x.lon_e7, x.alt_cm)
 
@@ -262,5 +265,6 @@ def verify_items(
             continue
         if not items_match(a, b):
             raise MissionVerifyError(
-                f"item {seq} differs after upload: sent {ardusub_stored(a)}, read back {ardusub_stored(b)}", seq
+                f"item {seq} differs after upload: sent {ardusub_stored(a)}, read back "
+                f"{ardusub_stored(b, downloaded=True)}", seq
             )

@@ -58,9 +58,7 @@ def run(args: argparse.Namespace) -> int:
     area = load_area(args.area, origin=_origin(args.origin))
     heading = None if args.lane_heading_deg is None else math.radians(args.lane_heading_deg)
     plan = plan_survey(area, settings, stay_inside=args.stay_inside, heading_rad=heading)
-    paths = write_outputs(plan, area, args.out,
-                          altitude_reference=settings.mission.altitude_reference,
-                          acceptance_radius_m=settings.mission.acceptance_radius_m)
+    paths = write_outputs(plan, area, args.out, altitude_reference=settings.mission.altitude_reference)
     if not args.no_plot:
         from planner.survey.plot import plot_plan  # matplotlib only when a plot is wanted
 

@@ -10,7 +10,9 @@ from pathlib import Path
 from typing import Any
 
 from planner.errors import ConfigError
+from sim_harness.autopilot.params import ARDUSUB_4_5
 from sim_harness.faults import FaultConfig, TimeWindow
+from sim_harness.peers import TopsidePilot
 from sim_harness.vehicle.dynamics import AttitudeDisturbance
 from sim_harness.vehicle.sensors import SensorConfig
 
@@ -18,7 +20,7 @@ BUILTIN_SCENARIOS = ("paper-targets",)
 
 
 _SCENARIO_KEYS = {"name", "description", "scene", "area", "survey", "vehicle", "executor", "faults", "current",
-                  "sensors", "attitude"}
+                  "sensors", "attitude", "autopilot", "topside"}
 
 
 #: ``[attitude]`` keys (degrees and seconds) and the AttitudeDisturbance field each sets.
@@ -48,6 +50,15 @@ class Scenario:
     sensors: SensorConfig = field(default_factory=SensorConfig)
     link_timeout_s: float = 5.0
     attitude: AttitudeDisturbance = field(default_factory=AttitudeDisturbance)
+    #: ArduSub 4.5 parameters of the simulated sub on top of its BlueOS DVL set-up
+    #: (``[autopilot]``, e.g. ``MNT1_TYPE = 7`` for an unstabilised mount).
+    autopilot_params: dict[str, float] = field(default_factory=dict)
+    #: A topside ground station with a joystick (``[topside]``); None: none (a bench).
+    topside: TopsidePilot | None = None
+    #: The companion computer dies (its process killed) at this simulated time, s; the
+    #: simulator runs on for ``after_death_s`` to see what the vehicle does by itself.
+    companion_dies_at_s: float | None = None
+    after_death_s: float = 20.0
 
 
 def _scenario_file(source: str | Path) -> Path:
@@ -143,6 +154,18 @@ def load_scenario(source: str | Path, **overrides: Any) -> Scenario:
         raise ConfigError(f"bad sensor setting: {exc}", key="sensors", path=where) from exc
     current = doc.get("current", {})
     attitude = _attitude(doc.get("attitude", {}), where)
+    autopilot = dict(doc.get("autopilot", {}))
+    for key, value in autopilot.items():
+        if key not in ARDUSUB_4_5 or isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError("must be an ArduSub 4.5 parameter with a number", key=f"autopilot.{key}", path=where)
+    topside_doc = doc.get("topside")
+    topside = None
+    if topside_doc is not None:
+        try:
+            buttons = tuple((float(t), int(b)) for t, b in topside_doc.pop("buttons", []))
+            topside = TopsidePilot(buttons=buttons, **topside_doc)
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(f"bad topside setting: {exc}", key="topside", path=where) from exc
     executor = dict(doc.get("executor", {}))
     pitch_loop = bool(executor.pop("pitch_loop", True))
     link_timeout_s = float(executor.pop("link_timeout_s", 5.0))
@@ -157,6 +180,6 @@ def load_scenario(source: str | Path, **overrides: Any) -> Scenario:
         current_north_m_s=float(current.get("north_m_s", 0.0)),
         current_east_m_s=float(current.get("east_m_s", 0.0)),
         pitch_loop=pitch_loop, seed=int(vehicle.get("seed", 0)), sensors=sensors, link_timeout_s=link_timeout_s,
-        attitude=attitude,
+        attitude=attitude, autopilot_params={k: float(v) for k, v in autopilot.items()}, topside=topside,
     )
     return replace(scenario, **overrides) if overrides else scenario

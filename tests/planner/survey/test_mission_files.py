@@ -16,7 +16,7 @@ from planner.survey.altitudes import choose_altitudes
 from planner.survey.area import SurveyArea, area_from_geojson
 from planner.survey.lawnmower import plan_survey
 from planner.survey.mission_files import (
-    MAV_CMD_DO_MOUNT_CONTROL,
+    MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW,
     MAV_CMD_NAV_WAYPOINT,
     mission_items,
     plan_geojson,
@@ -139,15 +139,18 @@ def test_qgc_plan_passes_the_loader_rules(plan_and_area, reference: str) -> None
         range(1, len(doc["mission"]["items"]) + 1))
 
 
-def test_mount_tilt_precedes_each_pass(plan_and_area) -> None:
+def test_mount_tilt_precedes_each_pass_in_a_command_sub_4_5_runs(plan_and_area) -> None:
+    """DO_GIMBAL_MANAGER_PITCHYAW (AP_Mission runs it itself; int8 whole degrees, yaw given);
+    no DO_MOUNT_CONTROL or DO_CHANGE_SPEED, which Sub::start_command refuses ("Bad alt frame")."""
     plan, _ = plan_and_area
     items = mission_items(plan)
-    mounts = [i for i, it in enumerate(items) if it.command == MAV_CMD_DO_MOUNT_CONTROL]
+    assert {it.command for it in items} == {MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, MAV_CMD_NAV_WAYPOINT}
+    mounts = [i for i, it in enumerate(items) if it.command == MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW]
     assert len(mounts) == len(plan.passes)
     for idx, p in zip(mounts, plan.passes, strict=True):
         it = items[idx]
-        assert it.params[0] == pytest.approx(-math.degrees(p.tilt_rad))  # negative = down
-        assert it.params[6] == 2  # MAV_MOUNT_MODE_MAVLINK_TARGETING
+        assert it.params[0] == round(-math.degrees(p.tilt_rad))  # negative = down, whole degrees
+        assert it.params[1] == 0.0 and not any(math.isnan(v) for v in it.params)
         nxt = items[idx + 1]
         assert nxt.command == MAV_CMD_NAV_WAYPOINT
         assert (nxt.params[4], nxt.params[5]) == (p.waypoints[0].lat_deg, p.waypoints[0].lon_deg)
