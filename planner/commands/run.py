@@ -1,11 +1,15 @@
-"""``shadowsurvey run --connect udp:... --plan DIR``: fly a planned survey on a real ArduSub.
+"""``shadowsurvey run --connect udpin:0.0.0.0:14770 --plan DIR``: fly a planned survey on a real ArduSub.
 
 The same executor, MAVLink client and on-board perception as ``shadowsurvey sim``, on the
-wall clock, against the vehicle at ``--connect``. Sonar frames come from a sonar driver
-that drops ``.npz`` frames into ``--sonar-dir`` (see :mod:`planner.mission.sonar_sources`);
-without one the survey is flown and logged but no heights are measured. Arming needs an
-explicit confirmation: type ``ARM`` at the prompt, or pass ``--yes`` in scripts that have
-their own interlock.
+wall clock, against the vehicle at ``--connect`` (on BlueOS: a MAVLink endpoint, see
+docs/flying-a-real-sub.md). Order: connect, the pre-flight checks (sensors, EKF origin,
+SYSID_MYGCS and the failsafes, the topside's heartbeat and joystick, the mount), then
+the ARM prompt showing what they found (type ``ARM``; ``--yes`` for scripts with their
+own interlock), then the dive. The companion reads the vehicle's parameters and never
+changes one. Ctrl-C at any time commands the safe action (``--safe-action``, if armed)
+and still writes the run folder's summary. Sonar frames come from a driver that drops
+``.npz`` frames into ``--sonar-dir`` (:mod:`planner.mission.sonar_sources`); without
+one the survey is flown and logged but no heights are measured.
 """
 
 from __future__ import annotations
@@ -16,21 +20,24 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from perception.geodesy import LocalOrigin
 from planner.config import default_settings, load_settings
 from planner.errors import UsageError
 from planner.mission.executor import ExecutorConfig, MissionExecutor, PlanTilt
 from planner.mission.onboard import OnboardConfig, OnboardPerception
+from planner.mission.preflight import PreflightReport
 from planner.mission.products import summary_document, write_products
 from planner.mission.run_folder import RunFolder
 from planner.mission.safety import SafetyLimits
 from planner.mission.sonar_sources import DirectorySonarSource
 from planner.pitch.control import ShadowPitchLoop
 from planner.report.markdown import generate_report
-from planner.survey.plan import load_plan
+from planner.survey.plan import SurveyPlan, load_plan
 from vehicle_link.client import ArduSubClient, LinkHealth
 from vehicle_link.clock import WallClock
 from vehicle_link.config import LinkConfig
+
+#: Components BlueOS leaves free for a companion program (194 is mavlink2rest's).
+COMPANION_COMPONENTS = (191, 192, 193)
 
 
 def register(subparsers: Any) -> None:
@@ -38,17 +45,28 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "run",
         help="fly a planned survey on a real vehicle (asks before arming)",
-        description="Fly plan.json (from `shadowsurvey plan`) on an ArduSub vehicle over MAVLink.",
+        description="Fly plan.json (from `shadowsurvey plan`) on an ArduSub 4.5 vehicle over MAVLink.",
     )
     parser.add_argument("--connect", required=True,
-                        help="MAVLink connection, e.g. udpin:0.0.0.0:14770, udpout:192.168.2.2:14550, tcp:host:port")
+                        help="MAVLink connection, e.g. udpin:0.0.0.0:14770 (a BlueOS UDP client endpoint to "
+                             "this port), udpout:192.168.2.2:14550, tcp:127.0.0.1:5777")
     parser.add_argument("--plan", required=True, help="folder written by `shadowsurvey plan` (or its plan.json)")
     parser.add_argument("--config", help="the settings TOML the plan was made with (default: shipped)")
     parser.add_argument("--out", default="runs/dive", help="run folder (default: runs/dive)")
     parser.add_argument("--sonar-dir", help="folder where the sonar driver drops .npz frames")
     parser.add_argument("--fixed-tilt", action="store_true", help="hold the plan's tilts (no pitch loop)")
     parser.add_argument("--on-link-loss", choices=("hold", "surface"), default="surface",
-                        help="safe action when the link drops (default: surface)")
+                        help="commanded when the link comes back after a loss (default: surface)")
+    parser.add_argument("--safe-action", choices=("hold", "surface"), default="surface",
+                        help="commanded on an abort or Ctrl-C (default: surface: ALT_HOLD and a controlled "
+                             "ascent, which needs no position)")
+    parser.add_argument("--component-id", type=int, default=191, choices=COMPANION_COMPONENTS,
+                        help="our MAVLink component id (default 191; 194 is BlueOS's mavlink2rest)")
+    parser.add_argument("--no-topside", action="store_true",
+                        help="bench test: arm without a topside ground station and joystick (nobody can take over)")
+    parser.add_argument("--set-origin", action="store_true",
+                        help="if the vehicle has no EKF origin, give it the plan's (only if the vehicle was "
+                             "switched on at the plan's origin; otherwise set its position in the DVL extension)")
     parser.add_argument("--yes", action="store_true", help="do not ask before arming")
     parser.set_defaults(func=run)
 
@@ -63,30 +81,36 @@ def confirm_arming(plan_text: str, *, stdin: TextIO | None = None, stdout: TextI
     return answer.strip() == "ARM"
 
 
+def _plan_text(args: argparse.Namespace, plan: SurveyPlan, max_depth_m: float, clearance_m: float) -> str:
+    passes = ", ".join(f"{p.name}: {p.altitude_m:.2f} m altitude, tilt {p.tilt_rad * 57.2958:.1f} deg, "
+                       f"{p.length_m:.0f} m" for p in plan.passes)
+    return (f"plan {args.plan}: {len(plan.passes)} passes ({passes}); depth limit {max_depth_m} m, clearance "
+            f"{clearance_m} m; on abort or Ctrl-C: {args.safe_action}; on link loss: {args.on_link_loss}")
+
+
 def run(args: argparse.Namespace) -> int:
-    """Connect, confirm, fly, write the run folder; exit 0 when completed."""
+    """Connect, check, confirm, fly, write the run folder; exit 0 when completed."""
     plan = load_plan(args.plan)
     settings = load_settings(args.config) if args.config else default_settings()
     sonar = DirectorySonarSource(Path(args.sonar_dir)) if args.sonar_dir else None
-    passes = ", ".join(f"{p.name}: {p.altitude_m:.2f} m altitude, tilt {p.tilt_rad * 57.2958:.1f} deg, "
-                       f"{p.length_m:.0f} m" for p in plan.passes)
-    text = (f"plan {args.plan}: {len(plan.passes)} passes ({passes}); depth limit "
-            f"{settings.vehicle.max_depth_m} m, clearance {settings.vehicle.min_clearance_m} m; "
-            f"on link loss: {args.on_link_loss}")
-    if not args.yes and not confirm_arming(text):
-        raise UsageError("arming not confirmed: nothing was sent to the vehicle")
+    text = _plan_text(args, plan, settings.vehicle.max_depth_m, settings.vehicle.min_clearance_m)
+
+    def confirm(report: PreflightReport) -> bool:
+        lines = "\n".join(f"  {line}" for line in report.lines())
+        return args.yes or confirm_arming(f"pre-flight checks passed:\n{lines}\n{text}")
+
     clock = WallClock()
     run_folder = RunFolder(Path(args.out))
-    origin = LocalOrigin(plan.origin_lat_deg, plan.origin_lon_deg)
     config = ExecutorConfig(
         safety=SafetyLimits(min_clearance_m=settings.vehicle.min_clearance_m,
                             depth_limit_m=settings.vehicle.max_depth_m),
         speed_m_s=settings.vehicle.speed_m_s, acceptance_radius_m=settings.mission.acceptance_radius_m,
-        link_lost_action=args.on_link_loss,
+        link_lost_action=args.on_link_loss, abort_action=args.safe_action, finish_action=args.safe_action,
+        topside="absent" if args.no_topside else "required", set_ekf_origin=args.set_origin,
     )
     onboard = OnboardPerception(OnboardConfig())
     tilt = PlanTilt() if args.fixed_tilt else ShadowPitchLoop(plan, settings)
-    link = LinkConfig(args.connect, max_depth_m=settings.vehicle.max_depth_m,
+    link = LinkConfig(args.connect, source_component=args.component_id, max_depth_m=settings.vehicle.max_depth_m,
                       min_clearance_m=settings.vehicle.min_clearance_m,
                       tlog_path=str(run_folder.path("dive.tlog")), link_timeout_s=5.0, heartbeat_period_s=0.5)
     executors: list[MissionExecutor] = []
@@ -101,17 +125,20 @@ def run(args: argparse.Namespace) -> int:
 
     wall0 = time.perf_counter()
     client = ArduSubClient(link, clock=clock, on_link_lost=lost, on_link_restored=restored)
-    executor = MissionExecutor(client, sonar, plan, config, run_folder, clock, onboard, tilt=tilt)
+    executor = MissionExecutor(client, sonar, plan, config, run_folder, clock, onboard, tilt=tilt,
+                               confirm_arm=confirm)
     executors.append(executor)
     client.add_listener(onboard.listener)
     try:
-        result = executor.run_dive()
+        result = executor.run_dive()  # Ctrl-C inside: the safe action, then a result
     finally:
         client.close()
-    write_products(run_folder, onboard, origin, final=True)
-    summary = summary_document(result, onboard, wall_s=time.perf_counter() - wall0)
-    run_folder.write_json("summary.json", summary)
-    run_folder.close()
+        write_products(run_folder, executor.onboard, executor.map_origin, final=True)
+        summary = summary_document(executor.result, executor.onboard, wall_s=time.perf_counter() - wall0)
+        run_folder.write_json("summary.json", summary)
+        run_folder.close()
     generate_report(Path(args.out))
-    print(f"dive {summary['status']}: {summary['reason']}; run folder {args.out}")
+    print(f"dive {summary['status']}: {summary['message'] or summary['reason']}; run folder {args.out}")
+    if result.reason == "arming_not_confirmed":
+        raise UsageError("arming not confirmed: the vehicle was not armed")
     return 0 if summary["status"] == "completed" else 1
