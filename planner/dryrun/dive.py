@@ -12,8 +12,8 @@ scene's, the one origin of the dive), BlueOS's own services heartbeating as syst
 the pilot-input failsafe latched 3 s after boot when there is no topside joystick (the
 executor then runs with ``topside="absent"``, as a bench test). A scenario may add a
 topside pilot (``[topside]``) or kill the companion mid-dive (``companion_dies_at_s``):
-its process then stops dead, and the simulator runs on to show what the vehicle does on
-its own."""
+its process then stops dead; ``run_on_s`` keeps the simulator running after the executor
+stops, to show what the vehicle does on its own."""
 
 from __future__ import annotations
 
@@ -193,8 +193,8 @@ def run_dry_dive(
     sim.start()
     try:
         pilot.join()
-        if "killed_s" in holder:  # let the vehicle show what it does on its own
-            clock.sleep_until(holder["killed_s"] + scenario.after_death_s)
+        if scenario.run_on_s > 0.0:  # let the vehicle show what it does on its own
+            clock.sleep_until(holder.get("killed_s", clock.now_s()) + scenario.run_on_s)
     finally:
         sim.stop()
     if "result" not in holder:

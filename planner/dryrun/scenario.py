@@ -55,10 +55,11 @@ class Scenario:
     autopilot_params: dict[str, float] = field(default_factory=dict)
     #: A topside ground station with a joystick (``[topside]``); None: none (a bench).
     topside: TopsidePilot | None = None
-    #: The companion computer dies (its process killed) at this simulated time, s; the
-    #: simulator runs on for ``after_death_s`` to see what the vehicle does by itself.
+    #: The companion computer dies (its process killed) at this simulated time, s.
     companion_dies_at_s: float | None = None
-    after_death_s: float = 20.0
+    #: The simulator runs on this long after the executor stops (finished, aborted or
+    #: killed) to show what the vehicle does by itself, s.
+    run_on_s: float = 0.0
 
 
 def _scenario_file(source: str | Path) -> Path:

@@ -72,7 +72,7 @@ class PreflightSteps:
         if not report.ok:
             raise self._abort("preflight_refused", f"arming refused: {report.refusal}")
         if cfg.upload_mission:
-            items = [_link_item(it) for it in mission_items(self._plan)]
+            items = [link_item(it) for it in mission_items(self._plan)]
             self._command(f"mission upload ({len(items)} items, verified)", lambda: self._client.upload_mission(items))
         return PreflightOutcome(report, facts.mount_frame or "earth", origin, offset)
 
@@ -145,7 +145,7 @@ class PreflightSteps:
             position_ok=ekf is not None and ekf.horizontal_position_ok, mount_frame=mount_frame)
 
 
-def _link_item(item: Any) -> MissionItem:
+def link_item(item: Any) -> MissionItem:
     """A :class:`planner.survey.mission_files.MissionItem` as vehicle_link uploads it."""
     p = item.params
     return MissionItem(item.command, item.frame, p[4], p[5], p[6], p[0], p[1], p[2], p[3], item.autocontinue)
