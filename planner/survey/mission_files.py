@@ -30,6 +30,12 @@ Altitude of the waypoints (``[mission] altitude_reference``):
 
 Absolute-frame (0) waypoints are refused by Sub at run time ("Bad alt frame").
 
+The values are those ArduSub keeps (AP_Mission ``mavlink_int_to_mission_cmd``): latitude
+and longitude in whole 1e-7 degrees, the altitude in whole centimetres (rounded here:
+AP_Mission truncates ``z * 100.0f``, which would turn 0.99999 m into 99 cm; whole
+centimetres below 163 m survive that float32 product exactly). A mission read back from
+the vehicle is then the file itself, home aside.
+
 The ``.plan`` carries what QGroundControl's loader requires (PlanMasterController /
 MissionController::_loadJsonMissionFileV2 / SimpleMissionItem): ``fileType`` "Plan",
 ``version`` 1, ``groundStation`` (string), ``mission`` {``version`` 2, ``firmwareType``
@@ -92,8 +98,10 @@ def mission_items(plan: SurveyPlan, *, altitude_reference: str = "seabed") -> tu
             frame, alt = MAV_FRAME_GLOBAL_TERRAIN_ALT, p.altitude_m
         else:
             frame, alt = MAV_FRAME_GLOBAL_RELATIVE_ALT, -p.depth_m
+        alt = round(alt * 100.0) / 100.0
         for w in p.waypoints:
-            items.append(MissionItem(MAV_CMD_NAV_WAYPOINT, frame, (0.0, 0.0, 0.0, 0.0, w.lat_deg, w.lon_deg, alt)))
+            lat, lon = round(w.lat_deg * 1e7) / 1e7, round(w.lon_deg * 1e7) / 1e7
+            items.append(MissionItem(MAV_CMD_NAV_WAYPOINT, frame, (0.0, 0.0, 0.0, 0.0, lat, lon, alt)))
     return tuple(items)
 
 

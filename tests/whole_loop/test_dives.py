@@ -14,10 +14,13 @@ from __future__ import annotations
 import csv
 import json
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
+from perception.geodesy import LocalOrigin
 from planner.dryrun.dive import DryRun, run_dry_dive
 from planner.dryrun.scenario import load_scenario
 from sim_harness.autopilot.autopilot import Mode
@@ -150,6 +153,27 @@ def test_nominal_dive_measures_the_paper_targets(nominal: DryRun):
     assert len(scored) >= 4, nominal.summary["heights_vs_truth"]
     mean_err = sum(abs(t["error_m"]) for t in scored) / len(scored)
     assert mean_err <= 0.002, nominal.summary["heights_vs_truth"]
+
+
+@pytest.mark.slow
+def test_mavlogdump_reads_the_tlog_near_the_plans_origin(nominal: DryRun):
+    """pymavlink's own ``mavlogdump.py`` reads the dive's tlog: the EKF origin the vehicle
+    reports (GPS_GLOBAL_ORIGIN) is the plan's, and every position it reported once it had
+    one is within the site, not 460 km away at a default origin."""
+    script = Path(sys.executable).with_name("mavlogdump.py")
+    out = subprocess.run([sys.executable, str(script), "--format", "csv", "--types",
+                          "GLOBAL_POSITION_INT,GPS_GLOBAL_ORIGIN", str(nominal.out_dir / "dive.tlog")],
+                         capture_output=True, text=True, check=True, timeout=120).stdout
+    rows = list(csv.DictReader(out.splitlines()))
+    origins = {(r["GPS_GLOBAL_ORIGIN.latitude"], r["GPS_GLOBAL_ORIGIN.longitude"]) for r in rows
+               if r["GPS_GLOBAL_ORIGIN.latitude"]}
+    plan = nominal.plan
+    assert origins == {(str(round(plan.origin_lat_deg * 1e7)), str(round(plan.origin_lon_deg * 1e7)))}
+    site = LocalOrigin(plan.origin_lat_deg, plan.origin_lon_deg)
+    fixes = [(int(r["GLOBAL_POSITION_INT.lat"]) * 1e-7, int(r["GLOBAL_POSITION_INT.lon"]) * 1e-7) for r in rows
+             if r["GLOBAL_POSITION_INT.lat"] not in ("", "0")]
+    assert len(fixes) > 100
+    assert max(math.hypot(*site.to_local(lat, lon)) for lat, lon in fixes) < 20.0
 
 
 @pytest.mark.slow

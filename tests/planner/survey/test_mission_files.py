@@ -128,13 +128,13 @@ def test_qgc_plan_passes_the_loader_rules(plan_and_area, reference: str) -> None
     assert len(wps) == sum(len(p.waypoints) for p in plan.passes)
     if reference == "seabed":
         assert {it["frame"] for it in wps} == {10}
-        alts = sorted({round(it["params"][6], 9) for it in wps})
-        assert alts == sorted(round(p.altitude_m, 9) for p in plan.passes)
+        alts = sorted({it["params"][6] for it in wps})  # whole centimetres, as ArduSub keeps them
+        assert alts == sorted(round(p.altitude_m * 100) / 100 for p in plan.passes)
     else:
         assert {it["frame"] for it in wps} == {3}
         assert all(it["params"][6] < 0 for it in wps)
-        assert sorted({round(-it["params"][6], 9) for it in wps}) == sorted(
-            round(p.depth_m, 9) for p in plan.passes)
+        assert sorted({-it["params"][6] for it in wps}) == sorted(
+            round(p.depth_m * 100) / 100 for p in plan.passes)
     assert [it["doJumpId"] for it in doc["mission"]["items"]] == list(
         range(1, len(doc["mission"]["items"]) + 1))
 
@@ -153,7 +153,9 @@ def test_mount_tilt_precedes_each_pass_in_a_command_sub_4_5_runs(plan_and_area) 
         assert it.params[1] == 0.0 and not any(math.isnan(v) for v in it.params)
         nxt = items[idx + 1]
         assert nxt.command == MAV_CMD_NAV_WAYPOINT
-        assert (nxt.params[4], nxt.params[5]) == (p.waypoints[0].lat_deg, p.waypoints[0].lon_deg)
+        assert (nxt.params[4], nxt.params[5]) == pytest.approx((p.waypoints[0].lat_deg, p.waypoints[0].lon_deg),
+                                                               abs=0.51e-7)  # whole 1e-7 degrees
+        assert round(nxt.params[4] * 1e7) / 1e7 == nxt.params[4]
 
 
 def test_waypoints_load_in_pymavlink_and_round_trip(plan_and_area, tmp_path: Path) -> None:
