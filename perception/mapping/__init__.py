@@ -2,7 +2,8 @@
 
 from perception.geodesy import LocalOrigin
 from perception.mapping.builder import MosaicBuilder, masks_from_shadows
-from perception.mapping.fan import FanGeometry, fan_geometry, frame_to_fan, polar_to_fan
+from perception.mapping.fan import frame_to_fan, polar_to_fan
+from perception.mapping.fan_geometry import FanGeometry, fan_geometry
 from perception.mapping.heights_layer import MappedTarget, height_raster, targets_feature_collection
 from perception.mapping.mosaic import MosaicConfig, TiledMosaic, placement_from_frame, project_frame
 from perception.mapping.products import (

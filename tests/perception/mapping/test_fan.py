@@ -10,7 +10,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from perception.errors import GeometryError
-from perception.mapping.fan import FanGeometry, fan_geometry, frame_to_fan, polar_to_fan
+from perception.mapping.fan import frame_to_fan, polar_to_fan
+from perception.mapping.fan_geometry import FanGeometry, fan_geometry
 from perception.sonar_io.beams import aris3000_128
 from perception.sonar_io.frame import SonarFrame
 

@@ -1,0 +1,97 @@
+"""Whole dry-run dives: simulated seconds per wall second and per CPU second, peak memory.
+
+Each dive runs as ``shadowsurvey sim SCENARIO --out TMP --no-progress`` in a child
+process, so its wall time, its CPU time (user + system, every thread and any process it
+starts) and its peak resident memory are its own. A fixed reference workload (numpy sorts
+and a Python loop, single-threaded) is timed before and after each dive in this process:
+on a shared host a slow minute shows as a slow reference.
+
+``python -m benchmarks.bench_dive [--scenarios NAME ...] [--repeats N]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+#: The dives measured by default: the shipped default dive and the field-scale site.
+SCENARIOS = ("paper-targets", "harbour-field")
+
+
+def reference_workload_s() -> float:
+    """Wall time of a fixed CPU workload (about 0.3 s on the development machine), s."""
+    t0 = time.perf_counter()
+    values = np.arange(200_000, dtype=np.float64)[::-1].copy()
+    for _ in range(20):
+        np.sort(values)
+    total = 0
+    for i in range(1_000_000):
+        total += i * i
+    return time.perf_counter() - t0
+
+
+def run_dive(scenario: str) -> dict[str, float | str]:
+    """One dive in a child process; its figures."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run"
+        err = Path(tmp) / "stderr.txt"
+        t0 = time.perf_counter()
+        with err.open("w") as handle:
+            proc = subprocess.Popen([sys.executable, "-m", "planner.cli", "sim", scenario, "--out", str(out),
+                                     "--no-progress"], stdout=subprocess.DEVNULL, stderr=handle)
+            # wait4: this child's own CPU time and peak memory (its threads and children included)
+            _, status, usage = os.wait4(proc.pid, 0)
+            proc.returncode = os.waitstatus_to_exitcode(status)
+        wall = time.perf_counter() - t0
+        cpu_s = usage.ru_utime + usage.ru_stime
+        peak_kib = int(usage.ru_maxrss)
+        if proc.returncode != 0:
+            return {"scenario": scenario, "error": (err.read_text().strip().splitlines() or ["?"])[-1]}
+        summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    sim_s = float(summary["sim_duration_s"])
+    return {"scenario": scenario, "status": summary["status"], "sim_s": sim_s, "wall_s": wall,
+            "cpu_s": cpu_s, "sim_per_wall": sim_s / wall, "sim_per_cpu": sim_s / max(cpu_s, 1e-9),
+            "peak_mib": peak_kib / 1024.0}
+
+
+def measure(scenarios: tuple[str, ...], repeats: int) -> list[str]:
+    """Markdown rows of every dive, with the reference workload around each."""
+    rows = ["| scenario | status | simulated s | wall s | CPU s | sim s / wall s | sim s / CPU s | peak RSS MiB "
+            "| reference s (before / after) |",
+            "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
+    for scenario in scenarios:
+        for _ in range(repeats):
+            before = reference_workload_s()
+            r = run_dive(scenario)
+            after = reference_workload_s()
+            if "error" in r:
+                rows.append(f"| {scenario} | failed: {r['error']} | | | | | | | {before:.3f} / {after:.3f} |")
+                continue
+            rows.append(f"| {scenario} | {r['status']} | {r['sim_s']:.0f} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} "
+                        f"| {r['sim_per_wall']:.1f} | {r['sim_per_cpu']:.1f} | {r['peak_mib']:.0f} "
+                        f"| {before:.3f} / {after:.3f} |")
+    return rows
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Print the Markdown section."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
+    parser.add_argument("--repeats", type=int, default=1)
+    args = parser.parse_args(argv)
+    print("## Whole dives\n")
+    print(f"Machine: {os.uname().machine}, {os.cpu_count()} cores, Python {sys.version.split()[0]}; "
+          f"load average {os.getloadavg()[0]:.1f}.\n")
+    print("\n".join(measure(tuple(args.scenarios), args.repeats)))
+
+
+if __name__ == "__main__":
+    main()
