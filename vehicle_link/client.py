@@ -11,6 +11,7 @@ are :class:`vehicle_link.missions.MissionLink`, the request protocols
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from vehicle_link import commands, units
@@ -129,40 +130,49 @@ class ArduSubClient(MissionLink):
 
     def arm(self, *, force: bool = False, confirm: bool = True) -> None:
         """Arm; with ``confirm`` wait for a heartbeat showing it armed."""
-        self.send_command(commands.arm_disarm(True, force=force))
-        if confirm and not self._wait_until(
-            lambda: self._hb_armed() is True, self.config.state_confirm_timeout_s
-        ):
-            raise StateChangeTimeout("armed", self.config.state_confirm_timeout_s)
+        self._command_with_effect(commands.arm_disarm(True, force=force), lambda: self._hb_armed() is True,
+                                  "armed", confirm)
 
     def disarm(self, *, force: bool = False, confirm: bool = True) -> None:
         """Disarm; with ``confirm`` wait for a heartbeat showing it disarmed."""
-        self.send_command(commands.arm_disarm(False, force=force))
-        if confirm and not self._wait_until(
-            lambda: self._hb_armed() is False, self.config.state_confirm_timeout_s
-        ):
-            raise StateChangeTimeout("disarmed", self.config.state_confirm_timeout_s)
+        self._command_with_effect(commands.arm_disarm(False, force=force), lambda: self._hb_armed() is False,
+                                  "disarmed", confirm)
 
     def _hb_armed(self) -> bool | None:
         record = self._store.get("Heartbeat")
         return record.armed if isinstance(record, Heartbeat) else None
 
+    def _command_with_effect(self, spec: commands.CommandSpec, done: Callable[[], bool], what: str,
+                             confirm: bool) -> None:
+        """Send ``spec`` and, with ``confirm``, wait for a heartbeat showing ``done``. An
+        unanswered command whose effect a heartbeat shows counts as done (its ACK was lost:
+        on a lossy tether the heartbeat is the better witness)."""
+        timeout_s = self.config.state_confirm_timeout_s
+        try:
+            self.send_command(spec)
+        except CommandTimeout:
+            if not self._wait_until(done, timeout_s):
+                raise
+            return
+        if confirm and not self._wait_until(done, timeout_s):
+            raise StateChangeTimeout(what, timeout_s)
+
     def set_mode(self, mode: SubMode | int | str, *, confirm: bool = True) -> SubMode:
         """Set an ArduSub mode by number or name (SURFTRAK = 21 included).
 
-        With ``confirm``, waits for a heartbeat in the new mode; the sonar mount target
-        (if any) is re-sent by the I/O thread when the mode change is seen.
+        With ``confirm``, waits for a heartbeat in the new mode (ArduSub 4.5 sends one at
+        once on a mode change). Nothing is re-sent on the link's own initiative.
         """
         target_mode = parse_mode(mode)
-        self.send_command(commands.set_mode(target_mode))
-        if confirm:
 
-            def in_mode() -> bool:
-                record = self._store.get("Heartbeat")
-                return isinstance(record, Heartbeat) and record.custom_mode == int(target_mode)
+        def in_mode() -> bool:
+            record = self._store.get("Heartbeat")
+            return isinstance(record, Heartbeat) and record.custom_mode == int(target_mode)
 
-            if not self._wait_until(in_mode, self.config.state_confirm_timeout_s):
-                raise ModeChangeTimeout(int(target_mode), self.config.state_confirm_timeout_s)
+        try:
+            self._command_with_effect(commands.set_mode(target_mode), in_mode, "mode", confirm)
+        except StateChangeTimeout as exc:
+            raise ModeChangeTimeout(int(target_mode), exc.timeout_s) from exc
         return target_mode
 
     def _check_depth(self, depth_m: float) -> None:

@@ -25,6 +25,7 @@ from planner.mission.onboard import OnboardPerception
 from planner.mission.run_folder import RunFolder
 from planner.mission.safety import clamp_depth
 from planner.mission.vehicle import Vehicle
+from vehicle_link.errors import CommandTimeout, StateChangeTimeout
 from vehicle_link.modes import SubMode
 from vehicle_link.telemetry import EkfStatus
 
@@ -56,6 +57,18 @@ class SafeActions:
         else:
             self.hold(why)
 
+    def _set_mode(self, mode: SubMode) -> None:
+        """The mode change with the executor's retries (a lossy tether loses commands)."""
+        for attempt in range(1, self._cfg.command_retries + 1):
+            try:
+                self._client.set_mode(mode)
+                return
+            except (CommandTimeout, StateChangeTimeout):
+                if attempt == self._cfg.command_retries:
+                    raise
+                self._run.event(self._clock.now_s(), "warning", f"mode {mode.name}: attempt {attempt} unanswered, "
+                                "again")
+
     def _position_ok(self) -> bool:
         ekf = self._client.latest(EkfStatus)
         return ekf is not None and ekf.horizontal_position_ok
@@ -64,7 +77,7 @@ class SafeActions:
         """ALT_HOLD and depth targets stepped up to the surface (see the module docstring)."""
         client, cfg, clock = self._client, self._cfg, self._clock
         if client.mode != SubMode.ALT_HOLD:
-            client.set_mode(SubMode.ALT_HOLD)
+            self._set_mode(SubMode.ALT_HOLD)
         self._onboard.drain()
         depth, _ = self._onboard.depth(clock.now_s())
         target = depth if math.isfinite(depth) else 0.0
@@ -104,12 +117,12 @@ class SafeActions:
                            seabed_std_m=seabed_std if math.isfinite(seabed_std) else 0.0, limits=self._cfg.safety)
         if self._position_ok() and nav is not None and math.isfinite(nav.north_m):
             if client.mode != SubMode.GUIDED:
-                client.set_mode(SubMode.GUIDED)
+                self._set_mode(SubMode.GUIDED)
             client.goto_posvel(nav.north_m, nav.east_m, safe.depth_m, 0.0, 0.0)
             self._run.event(now, "command", f"hold at ({nav.north_m:.1f}, {nav.east_m:.1f}) depth {safe.depth_m:.2f} m "
                             f"in GUIDED ({why})")
             return
         if client.mode != SubMode.ALT_HOLD:
-            client.set_mode(SubMode.ALT_HOLD)
+            self._set_mode(SubMode.ALT_HOLD)
         client.set_depth_target(safe.depth_m)
         self._run.event(now, "command", f"hold depth {safe.depth_m:.2f} m in ALT_HOLD ({why}; no position)")
