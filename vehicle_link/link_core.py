@@ -49,16 +49,8 @@ _log = logging.getLogger(__name__)
 
 T = TypeVar("T")
 
-_MISSION_MESSAGES = frozenset(
-    {
-        "MISSION_REQUEST",
-        "MISSION_REQUEST_INT",
-        "MISSION_ACK",
-        "MISSION_COUNT",
-        "MISSION_ITEM_INT",
-        "MISSION_ITEM",
-    }
-)
+_MISSION_MESSAGES = frozenset({"MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK", "MISSION_COUNT",
+                               "MISSION_ITEM_INT", "MISSION_ITEM"})
 
 
 class LinkCore(TelemetryStore):
@@ -372,24 +364,13 @@ class LinkCore(TelemetryStore):
         now = self._clock.now_s()
         with self._cond:
             last = self._last_hb_s
-            return LinkHealth(
-                self._link_up,
-                last,
-                None if last is None else now - last,
-                self._losses,
-                self._restorations,
-            )
+            return LinkHealth(self._link_up, last, None if last is None else now - last, self._losses,
+                              self._restorations)
 
     def stats(self) -> LinkStats:
         """Session counters."""
         sent = 0 if self._transport is None else self._transport.mav.total_packets_sent
-        return LinkStats(
-            self._received,
-            sent,
-            self._bad_data,
-            self._sig_rejects,
-            self._unknown,
-        )
+        return LinkStats(self._received, sent, self._bad_data, self._sig_rejects, self._unknown)
 
     def _fresh(self, kind: type[T], what: str, key: str | None = None) -> T:
         record = self.latest(kind, key)

@@ -18,9 +18,9 @@ X"; on success a HEARTBEAT at once and the mount back to its default mode), armi
 (``AP_Arming_Sub``: a mode may always be armed in; disarming resets the mission), the
 rangefinder (``Sub::init_rangefinder``: enabled at boot when RNGFND1_TYPE is set and
 RNGFND1_ORIENT is down; ``read_rangefinder``: healthy after 3 good readings within
-RNGFND1_MIN_CM..MAX_CM), HEARTBEAT ``base_mode``/``system_status``
-(``GCS_MAVLINK_Sub::base_mode``, ``vehicle_system_status``), SURFACE ending in ALT_HOLD
-at the surface (``ModeSurface::run``, SURFACE_DEPTH).
+RNGFND1_MIN_CM..MAX_CM), SURFACE ending in ALT_HOLD at the surface (``ModeSurface::run``,
+SURFACE_DEPTH). What the telemetry reports (HEARTBEAT base_mode and system_status among
+it) is :mod:`~sim_harness.autopilot.status`.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ from sim_harness.autopilot.navigation import GeoPoint, Navigation
 from sim_harness.autopilot.params import BLUEOS_DVL_SETUP, ParamTable
 from sim_harness.autopilot.pilot import PilotInput
 from sim_harness.autopilot.rangefinder import Rangefinder
-from sim_harness.autopilot.sensor_status import SensorState, sensor_flags
+from sim_harness.autopilot.status import snapshot
 from sim_harness.autopilot.telemetry import (
     BUILDABLE_IDS,
     STREAMS,
@@ -66,7 +66,6 @@ from sim_harness.vehicle.sensors import SensorReadings
 __all__ = ["Autopilot", "AutopilotConfig", "Mode"]
 
 M = mavlink
-GUIDED_BASE_MODES = frozenset({Mode.AUTO, Mode.GUIDED, Mode.CIRCLE, Mode.POSHOLD})
 
 
 @dataclass(frozen=True)
@@ -131,7 +130,7 @@ class Autopilot:
             armed=lambda: self.armed, disarm=lambda why: self.disarm(why, force=True),
             set_mode=lambda mode, why: self.set_mode(mode, reason=why), text=self.text,
             neutral_controls=self.pilot.neutral), sitl_build=config.sitl_build)
-        self.mission = MissionProtocol(self._home_tuple, self._on_new_mission, self.text,
+        self.mission = MissionProtocol(self.home_tuple, self._on_new_mission, self.text,
                                        lambda: self.runner.nav_index)
         self.runner = MissionRunner(self.mission, self.targets, MissionHooks(
             ned_of=lambda lat, lon: self.navigation.ned_of(lat * 1e-7, lon * 1e-7),
@@ -143,15 +142,15 @@ class Autopilot:
         ))
         self.readings: SensorReadings | None = None
         self._inbox = Inbox(self)
-        self._thrust = (0.0, 0.0, 0.0, 0.0)
-        self._servo_tilt_rad = mount.default_tilt_rad
+        self.thrust = (0.0, 0.0, 0.0, 0.0)
+        self.servo_tilt_rad = mount.default_tilt_rad
 
     # ------------------------------------------------------------------ helpers
     def text(self, severity: int, text: str) -> None:
         """Queue a STATUSTEXT (truncated to 50 characters, as MAVLink)."""
         self._outbox.append(mavlink.MAVLink_statustext_message(severity, text[:50].encode(), 0, 0))
 
-    def _home_tuple(self) -> tuple[float, float, float] | None:
+    def home_tuple(self) -> tuple[float, float, float] | None:
         h = self.navigation.home
         return None if h is None else (h.lat_deg, h.lon_deg, h.alt_m)
 
@@ -378,70 +377,23 @@ class Autopilot:
         self.mount.update(dt_s, self.pilot.rc8_us)
         if self.armed:
             sticks = self.pilot.sticks
-            self._thrust = self.guidance.thrust(self.mode, self.targets, sticks, r, now_s, dt_s)
+            self.thrust = self.guidance.thrust(self.mode, self.targets, sticks, r, now_s, dt_s)
             if self.mode == Mode.AUTO:
                 self.runner.update(r, self.guidance.nav, now_s, self.params["WPNAV_RADIUS"] / 100.0)
             if self.mode == Mode.SURFACE and r.depth_m < -self.params["SURFACE_DEPTH"] / 100.0:
                 self.set_mode(Mode.ALT_HOLD, reason="surface complete")  # ModeSurface::run at the surface
         else:
-            self._thrust = (0.0, 0.0, 0.0, 0.0)
+            self.thrust = (0.0, 0.0, 0.0, 0.0)
         servo_pitch = self.mount.servo_output_rad(r.pitch_rad)
-        self._servo_tilt_rad = self.mount_limits.clamp(-servo_pitch)
+        self.servo_tilt_rad = self.mount_limits.clamp(-servo_pitch)
         out = self._drain()
         out.extend(self.mission.update(now_s))
         due = self.telemetry.due(now_s)
-        snap = self.snapshot(now_s) if due else None
-        for msg_id in due:
-            assert snap is not None
-            msg = build_message(msg_id, snap)
-            if msg is not None:
-                out.append(msg)
-        return self._thrust, self._servo_tilt_rad, out
-
-    # ------------------------------------------------------------------ telemetry
-    def base_mode(self) -> int:
-        """HEARTBEAT base_mode (``GCS_MAVLINK_Sub::base_mode``): CUSTOM | STABILIZE |
-        MANUAL_INPUT always, GUIDED in AUTO/GUIDED/CIRCLE/POSHOLD, SAFETY_ARMED when armed."""
-        flags = (M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | M.MAV_MODE_FLAG_STABILIZE_ENABLED
-                 | M.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED)
-        if self.mode in GUIDED_BASE_MODES:
-            flags |= M.MAV_MODE_FLAG_GUIDED_ENABLED
-        if self.armed:
-            flags |= M.MAV_MODE_FLAG_SAFETY_ARMED
-        return flags
-
-    def system_status(self) -> int:
-        """``GCS_MAVLINK_Sub::vehicle_system_status``: CRITICAL while a failsafe is latched."""
-        if self.failsafes.any_triggered:
-            return M.MAV_STATE_CRITICAL
-        return M.MAV_STATE_ACTIVE if self.armed else M.MAV_STATE_STANDBY
+        if due:
+            snap = self.snapshot(now_s)
+            out.extend(m for m in (build_message(msg_id, snap) for msg_id in due) if m is not None)
+        return self.thrust, self.servo_tilt_rad, out
 
     def snapshot(self, now_s: float) -> TelemetrySnapshot:
-        """What telemetry reports now."""
-        r = self.readings
-        assert r is not None, "update() must run before telemetry"
-        p = self.rov
-        lim = (p.max_surge_n, p.max_sway_n, p.max_heave_n, p.max_yaw_nm)
-        norm = [max(-1.0, min(1.0, t / m)) for t, m in zip(self._thrust, lim, strict=True)]
-        nav = self.navigation
-        origin = None if nav.origin is None else (nav.origin.lat_deg, nav.origin.lon_deg, nav.origin.alt_m)
-        sensors = sensor_flags(SensorState(
-            mode=int(self.mode), armed=self.armed, prearm_ok=self.prearm_failure() is None,
-            depth_sensor_healthy=True, rangefinder_enabled=self.rangefinder.enabled,
-            rangefinder_has_data=r.altitude_m is not None,
-            vision_healthy=r.position_ok, fence_breached=self.failsafes.fence_breaches != 0), self.params)
-        return TelemetrySnapshot(
-            time_s=now_s, readings=r, custom_mode=int(self.mode), armed=self.armed,
-            system_status=self.system_status(), base_mode=self.base_mode(),
-            mission_seq=self.runner.index, mission_total=len(self.mission.items),
-            mission_state=self.runner.state,
-            thrust_norm=(norm[0], norm[1], norm[2], norm[3]), servo_tilt_rad=self._servo_tilt_rad,
-            origin=origin, home=self._home_tuple(),
-            nav_bearing_deg=self.guidance.nav.bearing_deg, nav_distance_m=self.guidance.nav.distance_m,
-            nav_alt_error_m=self.guidance.nav.vertical_error_m,
-            target_yaw_rad=self.targets.yaw_rad if self.targets.yaw_rad is not None else r.yaw_rad,
-            rangefinder_min_m=self.params["RNGFND1_MIN_CM"] / 100.0,
-            rangefinder_max_m=self.params["RNGFND1_MAX_CM"] / 100.0,
-            rangefinder_enabled=self.rangefinder.enabled, sensors=sensors, position_ok=self.position_ok(),
-            mount_status=self.mount.status_message(int(now_s * 1000.0) & 0xFFFFFFFF) if self.mount.present else None,
-        )
+        """What telemetry reports now (:func:`~sim_harness.autopilot.status.snapshot`)."""
+        return snapshot(self, now_s)

@@ -2,11 +2,9 @@
 simulated ArduSub vehicle and sonar. Every assertion is a physical fact checked against
 the simulator's truth (never the controller's own view).
 
-The site (tests/whole_loop/data/compact) is a two-lane strip over the paper's five Table I
-targets, so that each dive dry-runs in well under a minute. As in the field, a topside
-(QGroundControl, system 255 = SYSID_MYGCS) heartbeats and sends its joystick at rest all
-dive, and BlueOS's own services heartbeat as system 1. The compact dive flies pass 1's
-second 3 m lane from about 46 s to 54 s (simulated), so the mid-lane faults start at 50 s.
+The site and its helpers: tests/whole_loop/dives.py. The vehicle's own safety (link
+cut, companion killed, navigation lost, the pilot taking over) is
+tests/whole_loop/test_vehicle_safety.py.
 """
 
 from __future__ import annotations
@@ -21,77 +19,22 @@ from pathlib import Path
 import pytest
 
 from perception.geodesy import LocalOrigin
-from planner.dryrun.dive import DryRun, run_dry_dive
-from planner.dryrun.scenario import load_scenario
+from planner.dryrun.dive import DryRun
 from sim_harness.autopilot.autopilot import Mode
 from sim_harness.faults import FaultConfig, TimeWindow
-from sim_harness.peers import TopsidePilot
-from sim_harness.vehicle.dynamics import AttitudeDisturbance
+from tests.whole_loop.dives import (
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    TRIM_AND_WAVES,
+    assert_safe,
+    dive,
+    events,
+)
 from vehicle_link.mission import ardusub_stored
-
-SITE = Path(__file__).parent / "data" / "compact"
-MIN_CLEARANCE_M = 0.3  # survey.toml [vehicle] min_clearance_m
-DEPTH_LIMIT_M = 10.0  # survey.toml [vehicle] max_depth_m
-MAV_CMD_COMPONENT_ARM_DISARM = 400
-MID_LANE_S = 50.0
-LANE_SPEED_M_S = 0.5  # survey.toml [vehicle] speed_m_s
-#: Horizontal speed below which the vehicle counts as stopped, m/s.
-STOPPED_M_S = 0.02
-
-
-#: A nose-down trim of 3 deg, 3 deg pitch waves of 8 s and 3 deg roll waves: a light ROV
-#: near the surface in a swell, or pulled by its tether.
-TRIM_AND_WAVES = AttitudeDisturbance(pitch_bias_rad=math.radians(-3.0), pitch_amplitude_rad=math.radians(3.0),
-                                     pitch_period_s=8.0, roll_amplitude_rad=math.radians(3.0))
-
-
-def _dive(tmp_path: Path, name: str = "run", **overrides) -> DryRun:
-    return run_dry_dive(load_scenario(SITE, **overrides), tmp_path / name)
-
-
-def _assert_safe(dry: DryRun) -> None:
-    """Clearance and depth limit held over the whole dive, from the simulator's truth."""
-    armed = [h for h in dry.simulator.truth_history() if h.armed]
-    if not armed:  # aborted before arming: it never left the surface
-        assert dry.summary["status"] == "aborted"
-        assert max(h.depth_m for h in dry.simulator.truth_history()) < 0.5
-    else:
-        assert min(h.altitude_m for h in armed) >= MIN_CLEARANCE_M
-    assert max(h.depth_m for h in dry.simulator.truth_history()) <= DEPTH_LIMIT_M
-    assert dry.summary["depth_limit_violations"] == 0
-
-
-def _events(dry: DryRun) -> list[dict]:
-    return [json.loads(line) for line in (dry.out_dir / "events.jsonl").read_text().splitlines()]
-
-
-def _speed_m_s(h) -> float:
-    return math.hypot(h.surge_m_s, h.sway_m_s)
-
-
-def _stopped_from_s(history: list, after_s: float) -> float:
-    """The first time after ``after_s`` from which the vehicle stays stopped to the end."""
-    moving = [h.time_s for h in history if h.time_s >= after_s and _speed_m_s(h) >= STOPPED_M_S]
-    return moving[-1] if moving else after_s
-
-
-def _assert_own_stop(history: list, from_s: float) -> float:
-    """The setpoints stop at ``from_s``: the vehicle flies on along the last one until its
-    own 3 s timeout (ArduSub 4.5 ModeGuided::guided_posvel_control_run), then is stopped
-    (< 5 cm/s) within 4.5 s and settled (< 2 cm/s to the end) within 8 s. Returns the
-    settling time, s after ``from_s``."""
-    after = [h for h in history if h.time_s >= from_s]
-    flying_on = [_speed_m_s(h) for h in after if from_s + 0.5 <= h.time_s <= from_s + 2.9]
-    assert min(flying_on) > 0.6 * LANE_SPEED_M_S, min(flying_on)  # not stopped before the timeout
-    stopped_s = next(h.time_s for h in after if _speed_m_s(h) < 0.05) - from_s
-    settled_s = _stopped_from_s(after, from_s) - from_s
-    assert 3.0 <= stopped_s <= 4.5 and settled_s <= 8.0, (stopped_s, settled_s)
-    return settled_s
 
 
 @pytest.fixture(scope="module")
 def nominal(tmp_path_factory: pytest.TempPathFactory) -> DryRun:
-    return _dive(tmp_path_factory.mktemp("nominal"))
+    return dive(tmp_path_factory.mktemp("nominal"))
 
 
 @pytest.mark.slow
@@ -100,7 +43,7 @@ def test_nominal_dive_completes_safely(nominal: DryRun):
     states = [s["state"] for s in nominal.summary["states"]]
     assert states == ["CONNECT", "PREFLIGHT", "ARM", "DESCEND", "PASS_1", "ALTITUDE_CHANGE", "PASS_2", "FINISH",
                       "COMPLETED"]
-    _assert_safe(nominal)
+    assert_safe(nominal)
     # Both passes flown at their planned altitudes (truth, while on the lanes).
     with (nominal.out_dir / "truth_track.csv").open(newline="") as handle:
         track = list(csv.DictReader(handle))
@@ -122,7 +65,7 @@ def test_topside_pilot_throughout_never_disarms(nominal: DryRun):
     armed_at = next(h.time_s for h in history if h.armed)
     assert all(h.armed for h in history if h.time_s >= armed_at)
     assert history[-1].mode == Mode.ALT_HOLD and history[-1].depth_m < 0.5
-    assert not any(e["kind"] == "failsafe" for e in _events(nominal))
+    assert not any(e["kind"] == "failsafe" for e in events(nominal))
 
 
 @pytest.mark.slow
@@ -142,7 +85,7 @@ def test_mission_verified_against_what_ardusub_stores(nominal: DryRun):
         model = ardusub_stored(item)
         assert (model.lat_e7, model.lon_e7, model.alt_cm) == (s.lat_e7, s.lon_e7, s.alt_cm)
         assert s.terrain_alt  # frame 10: altitude above the seabed, as the survey flies
-    uploads = [e for e in _events(nominal) if e["kind"] == "command" and e["message"].startswith("mission upload")]
+    uploads = [e for e in events(nominal) if e["kind"] == "command" and e["message"].startswith("mission upload")]
     assert [e["message"] for e in uploads] == [f"mission upload ({len(sent)} items, verified)"]
 
 
@@ -193,93 +136,8 @@ def test_nominal_dive_writes_a_complete_run_folder(nominal: DryRun):
 
 
 @pytest.mark.slow
-def test_link_cut_vehicle_stops_itself_then_surfaces_when_it_returns(tmp_path):
-    """The link is cut mid-pass for 20 s: the position + velocity setpoints stop, so the
-    vehicle stops by itself 3 s after the last one (ArduSub 4.5 ModeGuided::
-    guided_posvel_control_run) and holds, armed; the executor aborts with link_lost and,
-    when the link returns, commands the link-lost action (surface) and the vehicle surfaces.
-    The GCS failsafe is not ours: the topside's heartbeat never stopped."""
-    cut = TimeWindow(MID_LANE_S, MID_LANE_S + 20.0)
-    dry = _dive(tmp_path, faults=FaultConfig(link_cuts=(cut,)))
-    assert dry.summary["status"] == "aborted"
-    assert dry.summary["reason"] == "link_lost"
-    assert dry.summary["safe_action"] == "surface"
-    _assert_safe(dry)
-    history = dry.simulator.truth_history()
-    during = [h for h in history if cut.start_s <= h.time_s <= cut.end_s]
-    assert all(h.armed and h.mode == Mode.GUIDED for h in during)
-    _assert_own_stop(during, cut.start_s)
-    assert max(h.depth_m for h in during) - min(h.depth_m for h in during) < 0.05
-    assert history[-1].depth_m < 0.5 and history[-1].armed
-    assert any(e["kind"] == "failsafe" and "stops within 3 s" in e["message"] for e in _events(dry))
-
-
-@pytest.mark.slow
-def test_companion_killed_mid_pass_vehicle_stops_on_its_own(tmp_path):
-    """The companion's process dies mid-lane (no goodbye, no safe action) while BlueOS's
-    services keep heartbeating as system 1 and the topside as 255: 3 s after the last
-    setpoint the vehicle zeroes its velocity target and holds the position target and
-    depth, armed in GUIDED, for the pilot (ArduSub 4.5 ModeGuided::
-    guided_posvel_control_run, GUIDED_POSVEL_TIMEOUT_MS 3000). Measured (simulated
-    time after the death, 4 runs): braking from 3.2 s, stopped (< 5 cm/s) at 3.7 s,
-    settled (< 2 cm/s) by 6.1-6.2 s, 1.2-1.3 m further along the lane, depth within 4 mm."""
-    dry = _dive(tmp_path, companion_dies_at_s=MID_LANE_S, run_on_s=20.0)
-    assert dry.summary["status"] == "killed"
-    history = dry.simulator.truth_history()
-    after = [h for h in history if h.time_s >= MID_LANE_S]
-    at_death = after[0]
-    assert at_death.mode == Mode.GUIDED  # flying the lane when it died (speed: _assert_own_stop)
-    assert after[-1].time_s >= MID_LANE_S + 19.0
-    settled_s = _assert_own_stop(after, MID_LANE_S)
-    assert all(h.armed and h.mode == Mode.GUIDED for h in after)
-    held = [h for h in after if h.time_s >= MID_LANE_S + settled_s]
-    assert max(h.depth_m for h in after) - min(h.depth_m for h in after) < 0.05
-    drift = math.hypot(held[-1].north_m - held[0].north_m, held[-1].east_m - held[0].east_m)
-    assert drift < 0.1
-    travelled = math.hypot(held[0].north_m - at_death.north_m, held[0].east_m - at_death.east_m)
-    assert travelled < LANE_SPEED_M_S * 3.5 + 0.3  # the lane speed until the timeout, then braking
-    assert min(h.altitude_m for h in after) >= MIN_CLEARANCE_M
-
-
-@pytest.mark.slow
-def test_dvl_position_lost_ascends_in_alt_hold(tmp_path):
-    """The DVL loses bottom lock mid-pass for good: the EKF has no position, so GUIDED and
-    SURFACE are both out (ArduSub 4.5 ModeSurface::requires_GPS); the executor aborts with
-    navigation_lost and ascends in ALT_HOLD by GLOBAL_INT depth targets, which need no
-    position (GCS_MAVLINK_Sub::handle_set_position_target_global_int), to the surface."""
-    dry = _dive(tmp_path, faults=FaultConfig(position_loss=(TimeWindow(MID_LANE_S, 1e9),)))
-    assert dry.summary["status"] == "aborted"
-    assert dry.summary["reason"] == "navigation_lost", dry.summary["message"]
-    assert dry.summary["safe_action"] == "surface"
-    _assert_safe(dry)
-    history = dry.simulator.truth_history()
-    after = [h for h in history if h.time_s >= MID_LANE_S + 3.0]
-    assert all(h.armed and h.mode != Mode.SURFACE for h in after)
-    assert after[-1].mode == Mode.ALT_HOLD and after[-1].depth_m < 0.5
-    assert after[-1].time_s - MID_LANE_S < 40.0
-
-
-@pytest.mark.slow
-def test_pilot_mode_change_is_honoured(tmp_path):
-    """Mid-pass the topside pilot presses the ALT_HOLD button (joystick button 2): the
-    executor stops commanding at once, aborts with "pilot took over" and never sends
-    another command (no mode change back, no safe action); the vehicle stays armed in the
-    pilot's mode."""
-    dry = _dive(tmp_path, topside=TopsidePilot(buttons=((MID_LANE_S, 2),)), run_on_s=10.0)
-    assert dry.summary["status"] == "aborted"
-    assert dry.summary["reason"] == "pilot_took_over"
-    assert "pilot took over" in dry.summary["message"]
-    assert dry.summary["safe_action"].startswith("none")
-    history = dry.simulator.truth_history()
-    after = [h for h in history if h.time_s >= MID_LANE_S + 0.5]
-    assert after[-1].time_s >= MID_LANE_S + 9.0  # the simulator ran on after the executor let go
-    assert all(h.armed and h.mode == Mode.ALT_HOLD for h in after)
-    assert not [e for e in _events(dry) if e["kind"] == "command" and e["t_s"] >= MID_LANE_S]
-
-
-@pytest.mark.slow
 def test_refused_arming_aborts_without_moving(tmp_path):
-    dry = _dive(tmp_path, faults=FaultConfig(refuse_commands=frozenset({MAV_CMD_COMPONENT_ARM_DISARM})))
+    dry = dive(tmp_path, faults=FaultConfig(refuse_commands=frozenset({MAV_CMD_COMPONENT_ARM_DISARM})))
     assert dry.summary["status"] == "aborted"
     assert dry.summary["reason"] == "command_refused"
     assert not any(h.armed for h in dry.simulator.truth_history())
@@ -291,9 +149,9 @@ def test_packet_loss_and_latency(nominal: DryRun, tmp_path):
     """30 % packet loss each way and 200 ms latency: the survey is still flown to the end
     and measured (lost setpoints are replaced by the next, 0.2 s later, long before the
     vehicle's 3 s timeout; commands are retried), within the limits."""
-    dry = _dive(tmp_path, faults=FaultConfig(seed=5, packet_loss=0.3, latency_s=0.2))
+    dry = dive(tmp_path, faults=FaultConfig(seed=5, packet_loss=0.3, latency_s=0.2))
     assert dry.summary["status"] == "completed", dry.summary["message"]
-    _assert_safe(dry)
+    assert_safe(dry)
     assert dry.summary["waypoints_reached"] == nominal.summary["waypoints_reached"]
     # Tilt commands and telemetry arrive late or not at all: 1.000 observed over the
     # tracking zone; asserted with room for the spread.
@@ -305,10 +163,10 @@ def test_packet_loss_and_latency(nominal: DryRun, tmp_path):
 
 @pytest.mark.slow
 def test_altimeter_dropouts_and_depth_spikes(tmp_path):
-    dry = _dive(tmp_path, faults=FaultConfig(seed=7, depth_spike_prob=0.02, depth_spike_m=1.0,
+    dry = dive(tmp_path, faults=FaultConfig(seed=7, depth_spike_prob=0.02, depth_spike_m=1.0,
                                              altimeter_dropouts=(TimeWindow(50.0, 52.5), TimeWindow(70.0, 72.0))))
     assert dry.summary["status"] == "completed", dry.summary["reason"]
-    _assert_safe(dry)
+    assert_safe(dry)
     counters = dry.summary["filter_counters"]
     assert counters["depth"]["rejected"] > 0  # the spikes were gated out
     assert dry.summary["shadow_in_fov_ratio"] >= 0.85  # 1.000 observed (0.95 over the old 2-altitude zone)
@@ -316,9 +174,9 @@ def test_altimeter_dropouts_and_depth_spikes(tmp_path):
 
 @pytest.mark.slow
 def test_current_and_disturbances(tmp_path):
-    dry = _dive(tmp_path, current_north_m_s=0.05, current_east_m_s=0.08)
+    dry = dive(tmp_path, current_north_m_s=0.05, current_east_m_s=0.08)
     assert dry.summary["status"] == "completed", dry.summary["reason"]
-    _assert_safe(dry)
+    assert_safe(dry)
     assert math.isfinite(dry.summary["min_clearance_m"])
     assert dry.summary["shadow_in_fov_ratio"] >= 0.85  # 1.000 observed (crab angle, pitch/roll waves)
 
@@ -372,7 +230,7 @@ def test_pitch_loop_against_fixed_tilt(nominal: DryRun, tmp_path):
     (fixed, 4).
     Where the attitude moves, see test_pitch_trim_and_waves_pitch_loop_against_fixed_tilt.
     """
-    fixed = _dive(tmp_path, pitch_loop=False)
+    fixed = dive(tmp_path, pitch_loop=False)
     closed_ratio = nominal.summary["shadow_in_fov_ratio"]
     fixed_ratio = fixed.summary["shadow_in_fov_ratio"]
     assert [z["start_m"] for z in fixed.summary["tracking_zone"]] == pytest.approx(
@@ -396,11 +254,11 @@ def test_pitch_trim_and_waves_pitch_loop_against_fixed_tilt(tmp_path):
     (4 runs); over the 2-altitude zone 0.81-0.85 and 0.73-0.80. (A stabilised servo mount,
     MNT1_TYPE 1, takes the pitch out itself.)"""
     body_mount = {"MNT1_TYPE": 7.0}
-    closed = _dive(tmp_path, "loop", attitude=TRIM_AND_WAVES, autopilot_params=body_mount)
-    fixed = _dive(tmp_path, "fixed", attitude=TRIM_AND_WAVES, pitch_loop=False, autopilot_params=body_mount)
+    closed = dive(tmp_path, "loop", attitude=TRIM_AND_WAVES, autopilot_params=body_mount)
+    fixed = dive(tmp_path, "fixed", attitude=TRIM_AND_WAVES, pitch_loop=False, autopilot_params=body_mount)
     for dry in (closed, fixed):
         assert dry.summary["status"] == "completed", dry.summary["reason"]
-        _assert_safe(dry)
+        assert_safe(dry)
     pitch = [h.pitch_rad for h in closed.simulator.truth_history() if h.armed]
     assert min(pitch) < math.radians(-5.0) and max(pitch) > math.radians(-1.0)  # the premise: it pitched
     assert closed.summary["shadow_frames_within_range"] >= 80
