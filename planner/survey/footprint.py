@@ -175,12 +175,22 @@ def swept_polygon(
     The trapezoid is convex, so the swept region is the convex hull of the trapezoid at
     both ends. Plane coordinates ``(east_m, north_m)``.
     """
-    start = np.asarray(start_en_m, dtype=float)
-    end = np.asarray(end_en_m, dtype=float)
+    return swept_polygons(fp, np.asarray([start_en_m], dtype=float), np.asarray([end_en_m], dtype=float))[0]
+
+
+def swept_polygons(fp: Footprint, starts_en_m: FloatArray, ends_en_m: FloatArray) -> NDArray[np.object_]:
+    """:func:`swept_polygon` of many runs at once: ``starts_en_m``, ``ends_en_m`` shape (n, 2)."""
+    start = np.asarray(starts_en_m, dtype=float).reshape(-1, 2)
+    end = np.asarray(ends_en_m, dtype=float).reshape(-1, 2)
     d = end - start
-    heading = math.atan2(d[0], d[1]) if np.hypot(*d) > 1e-9 else 0.0
-    pts = np.vstack([fp.corners_plane(tuple(start), heading), fp.corners_plane(tuple(end), heading)])
-    return shapely.MultiPoint(pts).convex_hull
+    heading = np.where(np.hypot(d[:, 0], d[:, 1]) > 1e-9, np.arctan2(d[:, 0], d[:, 1]), 0.0)
+    fwd = np.stack([np.sin(heading), np.cos(heading)], axis=-1)[:, None, :]
+    stb = np.stack([np.cos(heading), -np.sin(heading)], axis=-1)[:, None, :]
+    body = fp.corners_body()[None]
+    pts = np.concatenate([p[:, None, :] + body[..., :1] * fwd + body[..., 1:] * stb for p in (start, end)], axis=1)
+    hulls = shapely.convex_hull(shapely.multipoints(shapely.points(pts.reshape(-1, 2)),
+                                                    indices=np.repeat(np.arange(len(pts)), pts.shape[1])))
+    return np.asarray(hulls, dtype=object)
 
 
 def exact_footprint_body(

@@ -8,26 +8,31 @@ frame ``(u, v)`` with lanes along ``+u``):
    ground is seen from both altitudes.
 2. Each lane owns the strip ``|v - v_k| <= spacing / 2`` of the ground to cover (the area
    minus holes and keep-outs); the strip splits into u-intervals, one per connected piece
-   (the decomposition: concave notches and obstacles give several pieces per lane).
+   (the decomposition, :mod:`planner.survey.pieces`: concave notches and obstacles give
+   several pieces per lane).
 3. The forward-looking band sees ground ``g_near..g_far`` ahead, so covering ``[a, b]``
    flying ``+u`` needs the vehicle on ``[a - g_near, b - g_near]`` (the lead-in before the
    first ground; flying ``-u``: ``[a + g_near, b + g_near]``). That run is cut to where the
    vehicle may be: inside the outer boundary grown by the excursion limit
    ``hypot(g_near, spacing / 2)`` (the distance from the vehicle to the near corner of
-   its strip; the larger of the two passes'; 0 with ``stay_inside``), outside holes and keep-outs grown by the obstacle
-   margin. A run that starts at an obstacle cannot see the ground just past it (its
-   lead-in would be over the obstacle), so one direction may lose that strip.
-4. Pieces on consecutive lanes that overlap one to one form boustrophedon cells; cells
+   its strip; the larger of the two passes'; 0 with ``stay_inside``), outside holes and
+   keep-outs grown by the obstacle margin. A run that starts at an obstacle cannot see
+   the ground just past it (its lead-in would be over the obstacle), so one direction
+   may lose that strip; the piece may then also be flown one way and back over just
+   what that way misses (:mod:`planner.survey.lane_options`).
+4. Ground that no way along the lanes sees (a corridor across the lanes between two
+   obstacles, shorter than about ``2 (g_near + margin)``) is planned again as cross lanes
+   at right angles (:mod:`planner.survey.cross_fill`), the same for both passes, and
+   flown among the other pieces.
+5. Pieces on consecutive lanes that overlap one to one form boustrophedon cells; cells
    are flown one after the other (the cheapest cell end next), each as a lawnmower; a
    plain nearest-next order is also built and the shorter of the two kept. Each piece
-   is flown in the direction of cheapest start (a direction that loses ground beyond the
-   other costs ``planner.survey.run_order.LOSS_PENALTY`` m of transit per m lost and is allowed only within
-   ``[survey] edge_loss_budget`` of the area). Where both directions lose ground (a
-   piece between two obstacles, or between the edges when staying inside), the piece
-   may be flown there and back on its lane instead, when the ground won is worth the
-   extra run (``LOSS_PENALTY`` m per m won against the run's length), and every
-   turn or transit between runs follows :class:`planner.survey.routing.Router`, straight when
-   free, else the shortest path around obstacles inside the free region.
+   is flown in its way of cheapest start: a way that leaves ground unseen beyond the
+   piece's best way costs ``planner.survey.run_order.LOSS_PENALTY`` m of transit per m
+   lost and is allowed only within ``[survey] edge_loss_budget`` of the area; a run back
+   costs its length. Every turn or transit between runs follows
+   :class:`planner.survey.routing.Router`, straight when free, else the shortest path
+   around obstacles inside the free region.
 
 The second pass flies the same pieces with its own lead-in, starting where the first
 pass ended.
@@ -46,17 +51,15 @@ from planner.config import Settings
 from planner.errors import InfeasibleError
 from planner.survey.altitudes import AltitudeChoice, choose_altitudes
 from planner.survey.area import SurveyArea
-from planner.survey.footprint import Footprint, footprint, swept_polygon
+from planner.survey.cross_fill import cross_lanes, pockets
+from planner.survey.footprint import Footprint, footprint, swept_polygons
+from planner.survey.lane_options import piece_options
+from planner.survey.pieces import free_intervals, lane_pieces
 from planner.survey.plan import LaneRun, PlanSummary, PlanWaypoint, SurveyPass, SurveyPlan
 from planner.survey.routing import Router
 from planner.survey.run_order import Option, Piece, order_runs
 
 FloatArray = NDArray[np.float64]
-
-#: Runs shorter than this are dropped (m).
-MIN_RUN_M = 1e-3
-#: Most lanes a plan may have (guards against a swath far too small for the area).
-MAX_LANES = 20000
 
 
 @dataclass(frozen=True)
@@ -76,103 +79,6 @@ class LaneFrame:
     def points_to_plane(self, uv: FloatArray) -> FloatArray:
         c, s = math.cos(self._beta), math.sin(self._beta)
         return np.asarray(uv, dtype=float) @ np.array([[c, s], [-s, c]])
-
-
-def _intervals(geoms: NDArray, *, axis: int = 0, min_len: float = 0.0) -> list[list[tuple[float, float]]]:
-    """Merged u-intervals of the parts of each geometry (bounds along ``axis``)."""
-    out: list[list[tuple[float, float]]] = []
-    for g in geoms:
-        spans = []
-        for part in shapely.get_parts(g):
-            if part.is_empty:
-                continue
-            b = part.bounds
-            spans.append((b[axis], b[axis + 2]))
-        spans.sort()
-        merged: list[tuple[float, float]] = []
-        for lo, hi in spans:
-            if merged and lo <= merged[-1][1] + 1e-9:
-                merged[-1] = (merged[-1][0], max(merged[-1][1], hi))
-            else:
-                merged.append((lo, hi))
-        out.append([(lo, hi) for lo, hi in merged if hi - lo >= min_len])
-    return out
-
-
-def lane_pieces(region_lane: shapely.Geometry, spacing_m: float) -> list[Piece]:
-    """Cut the ground to cover (lane frame) into per-lane pieces (see the module docstring)."""
-    u0, v0, u1, v1 = region_lane.bounds
-    n = max(1, math.ceil((v1 - v0) / spacing_m - 1e-9))
-    if n > MAX_LANES:
-        raise InfeasibleError(f"{n} lanes of {spacing_m:.3g} m would be needed; the swath is "
-                              "too small for this area")
-    vs = (v0 + v1) / 2 + (np.arange(n) - (n - 1) / 2) * spacing_m
-    half = spacing_m / 2 * (1 + 1e-9)
-    boxes = shapely.box(u0 - 1.0, vs - half, u1 + 1.0, vs + half)
-    inter = shapely.intersection(boxes, region_lane)
-    pieces = []
-    for k, spans in enumerate(_intervals(inter)):
-        pieces += [Piece(k, float(vs[k]), lo, hi) for lo, hi in spans]
-    return pieces
-
-
-def _clip(lo: float, hi: float, free: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    return [(max(lo, f0), min(hi, f1)) for f0, f1 in free if min(hi, f1) - max(lo, f0) > MIN_RUN_M]
-
-
-def free_intervals(pieces: list[Piece], free_lane: shapely.Geometry) -> list[list[tuple[float, float]]]:
-    """For each piece, the u-intervals of its lane line inside the free region."""
-    if not pieces:
-        return []
-    u0, _, u1, _ = free_lane.bounds
-    vs = np.array([p.v for p in pieces])
-    uniq, inv = np.unique(vs, return_inverse=True)
-    lines = shapely.linestrings(
-        np.stack([np.stack([np.full_like(uniq, u0 - 1), uniq], -1),
-                  np.stack([np.full_like(uniq, u1 + 1), uniq], -1)], axis=1)
-    )
-    free = _intervals(shapely.intersection(lines, free_lane))
-    return [free[j] for j in inv]
-
-
-def _extra_loss(best_m: float, covered_m: float) -> float:
-    """Lane length a direction leaves unseen beyond the better one (0 below 1 um)."""
-    return 0.0 if best_m - covered_m <= 1e-6 else best_m - covered_m
-
-
-def _options(pieces: list[Piece], free_iv: list[list[tuple[float, float]]],
-             g_near: float) -> list[list[Option]]:
-    """Both ways to fly each piece, cut to the free region (see the module docstring)."""
-    out: list[list[Option]] = []
-    for i, p in enumerate(pieces):
-        fr = free_iv[i]
-        fwd = _clip(p.a - g_near, p.b - g_near, fr)
-        bwd = _clip(p.a + g_near, p.b + g_near, fr)[::-1]
-        cov_f = sum(hi - lo for lo, hi in fwd)
-        cov_b = sum(hi - lo for lo, hi in bwd)
-        best = max(cov_f, cov_b)
-        opts = []
-        if fwd:
-            opts.append(Option(i, tuple((np.array([lo, p.v]), np.array([hi, p.v]))
-                                         for lo, hi in fwd), _extra_loss(best, cov_f)))
-        if bwd:
-            opts.append(Option(i, tuple((np.array([hi, p.v]), np.array([lo, p.v]))
-                                         for lo, hi in bwd), _extra_loss(best, cov_b)))
-        if fwd and bwd:
-            # Both ways (there and back on the lane): the ground each direction misses
-            # just past an obstacle (where its run starts) the other sees. Worth it where
-            # both directions lose ground, e.g. a piece between two obstacles.
-            seen = shapely.union_all([shapely.LineString([(lo + g_near, 0.0), (hi + g_near, 0.0)]) for lo, hi in fwd]
-                                     + [shapely.LineString([(lo - g_near, 0.0), (hi - g_near, 0.0)]) for lo, hi in bwd])
-            gain = seen.length - best
-            if gain > MIN_RUN_M:
-                f_runs = [(np.array([lo, p.v]), np.array([hi, p.v])) for lo, hi in fwd]
-                b_runs = [(np.array([hi, p.v]), np.array([lo, p.v])) for lo, hi in bwd]
-                # the better direction first; the way back is the extra run
-                runs, back_m = (f_runs + b_runs, cov_b) if cov_f >= cov_b else (b_runs + f_runs, cov_f)
-                opts.append(Option(i, tuple(runs), -gain, back_m))
-        out.append(opts)
-    return out
 
 
 def _turn_time_s(points: FloatArray, settings: Settings) -> float:
@@ -201,14 +107,12 @@ class _PassGeometry:
 
 def _fly_pass(
     pieces: list[Piece],
+    opts: list[list[Option]],
     frame: LaneFrame,
     router: Router,
-    free_iv: list[list[tuple[float, float]]],
-    g_near: float,
     start_en: FloatArray | None,
     loss_budget_m: float,
 ) -> _PassGeometry:
-    opts = _options(pieces, free_iv, g_near)
     start_uv = None
     if start_en is not None:
         start_uv = np.asarray(shapely.get_coordinates(frame.to_lane(shapely.Point(start_en))))[0]
@@ -256,7 +160,8 @@ def coverage(area: SurveyArea, fp: Footprint, runs_en: tuple[tuple[FloatArray, F
              ) -> tuple[float, float]:
     """Covered fraction of the ground to cover and the uncovered area (m^2) for one pass."""
     region = area.coverage_region
-    swept = shapely.union_all([swept_polygon(fp, tuple(a), tuple(b)) for a, b, _ in runs_en])
+    ends = np.array([[a, b] for a, b, _ in runs_en]).reshape(-1, 2, 2)
+    swept = shapely.union_all(swept_polygons(fp, ends[:, 0], ends[:, 1]))
     covered = region.intersection(swept).area
     return covered / region.area, max(region.area - covered, 0.0)
 
@@ -326,7 +231,8 @@ def plan_survey(
     if heading_rad is None:
         heading_rad = choose_heading(area, spacing, settings)
     frame = LaneFrame(heading_rad % math.pi)
-    pieces = lane_pieces(frame.to_lane(area.coverage_region), spacing)
+    region_lane = frame.to_lane(area.coverage_region)
+    pieces = lane_pieces(region_lane, spacing)
     margin = settings.survey.obstacle_margin_m
     depth_of = settings.site.water_depth_m
     passes = []
@@ -336,9 +242,14 @@ def plan_survey(
     free_lane = frame.to_lane(free_region(area, exc, margin))
     router = Router(free_lane, margin_m=margin)
     free_iv = free_intervals(pieces, free_lane)
+    lane_opts = [piece_options(pieces, free_iv, fp.near_ground_m) for fp in fps]
+    # Cross lanes numbered after a gap, so that no cell joins them to the last lane.
+    cross = cross_lanes(pockets(region_lane, pieces, lane_opts, fps, spacing), free_lane, spacing,
+                        first_lane=max((p.k for p in pieces), default=0) + 2)
+    budget_m = settings.survey.edge_loss_budget * area.coverage_region.area / spacing
     for idx, fp in enumerate(fps, start=1):
-        budget_m = settings.survey.edge_loss_budget * area.coverage_region.area / spacing
-        geo = _fly_pass(pieces, frame, router, free_iv, fp.near_ground_m, start, budget_m)
+        opts = lane_opts[idx - 1] + cross.options(fp.near_ground_m, first_index=len(pieces))
+        geo = _fly_pass(pieces + cross.pieces, opts, frame, router, start, budget_m)
         path = geo.path_en
         seg = np.hypot(*np.diff(path, axis=0).T)
         length = float(seg.sum())

@@ -29,9 +29,9 @@ class Piece:
 @dataclass(frozen=True)
 class Option:
     """One way to fly a piece: its runs in flying order, the lane length (m) it leaves
-    unseen beyond what the better direction leaves (negative: it sees that much more,
-    flying the piece both ways), and the lane length (m) it flies beyond one pass over
-    the piece."""
+    unseen beyond what the piece's best option leaves, and the length (m) it flies, runs
+    and the hops between them, beyond one pass over the piece (a run back over ground
+    that one direction misses, :mod:`planner.survey.lane_options`)."""
 
     piece: int
     runs: tuple[tuple[FloatArray, FloatArray], ...]  # (start_uv, end_uv) in flying order
@@ -151,17 +151,19 @@ def _order_greedy(options: list[list[Option]], start_uv: FloatArray | None,
 
 
 def _order_cost(order: list[Option], start_uv: FloatArray | None, n_pieces: int) -> float:
-    """Straight-hop length of an order plus its loss penalty (runs are common to all);
-    infinite for an order that misses a piece."""
+    """Straight-hop length between the options of an order plus their extra runs and loss
+    penalty (one pass over each piece is common to all orders); infinite for an order that
+    misses a piece."""
     if len({o.piece for o in order}) != n_pieces:
         return float("inf")
-    pts = [o.runs[k][i] for o in order for k in range(len(o.runs)) for i in (0, 1)]
+    if not order:
+        return 0.0
+    ends = np.array([o.runs[-1][1] for o in order])
+    starts = np.array([o.runs[0][0] for o in order])
+    hops = float(np.hypot(*(starts[1:] - ends[:-1]).T).sum())
     if start_uv is not None:
-        pts.insert(0, np.asarray(start_uv, dtype=float))
-    xy = np.array(pts)
-    hops = np.hypot(*np.diff(xy, axis=0).T).sum()
-    runs = sum(np.hypot(*(b - a)) for o in order for a, b in o.runs)
-    return float(hops - runs + sum(LOSS_PENALTY * o.extra_loss_m + o.extra_run_m for o in order))
+        hops += float(np.hypot(*(order[0].runs[0][0] - np.asarray(start_uv, dtype=float))))
+    return hops + sum(LOSS_PENALTY * o.extra_loss_m + o.extra_run_m for o in order)
 
 
 def order_runs(options: list[list[Option]], pieces: list[Piece], start_uv: FloatArray | None,
