@@ -27,6 +27,7 @@ from typing import Any
 
 from perception.geodesy import LocalOrigin
 from planner.config import Settings, load_settings
+from planner.dryrun.anchored_faults import AnchoredFaults
 from planner.dryrun.scenario import Scenario
 from planner.dryrun.scoring import score_against_truth
 from planner.errors import ConfigError
@@ -129,6 +130,7 @@ def run_dry_dive(
     run.write_json("truth.json", truth_document(scene, origin))
 
     clock = SimClock()
+    faults = AnchoredFaults.of(scenario.faults) if scenario.faults_from_state else scenario.faults
     renderer = SonarRenderer(scene.world, _sonar_config(scene, settings, scenario.seed))
     sim = VehicleSimulator(
         scene.world,
@@ -137,7 +139,7 @@ def run_dry_dive(
                              sensors=scenario.sensors, disturbance=scenario.attitude,
                              autopilot=AutopilotConfig(origin=None, params=dict(scenario.autopilot_params)),
                              peers=(BlueOsServices(),) + ((scenario.topside,) if scenario.topside else ())),
-        faults=scenario.faults, clock=clock, listen="udp:127.0.0.1:0", sonar_renderer=renderer,
+        faults=faults, clock=clock, listen="udp:127.0.0.1:0", sonar_renderer=renderer,
         current=UniformCurrent(scenario.current_north_m_s, scenario.current_east_m_s),
     )
     host, port = sim.address
@@ -158,7 +160,14 @@ def run_dry_dive(
         now = clock.now_s()
         if progress is not None:
             progress(now, planned_s, executor.result.state)
-        if scenario.companion_dies_at_s is not None and now >= scenario.companion_dies_at_s:
+        t0 = 0.0
+        if isinstance(faults, AnchoredFaults):
+            if "t0_s" not in faults.anchor:
+                entered = [t for t, state in executor.result.states if state == scenario.faults_from_state]
+                if entered:
+                    faults.anchor["t0_s"] = entered[0]  # the fault windows count from here
+            t0 = faults.anchor.get("t0_s", math.inf)
+        if scenario.companion_dies_at_s is not None and now >= t0 + scenario.companion_dies_at_s:
             raise CompanionDied()
         if now - holder.get("products_s", now) > 60.0:
             write_products(run, executor.onboard, executor.map_origin)

@@ -57,6 +57,10 @@ class Scenario:
     topside: TopsidePilot | None = None
     #: The companion computer dies (its process killed) at this simulated time, s.
     companion_dies_at_s: float | None = None
+    #: Count the fault windows and ``companion_dies_at_s`` from the executor's first
+    #: entering this state (e.g. "PASS_1"; ``[faults] from_state``), not from the start
+    #: (:mod:`planner.dryrun.anchored_faults`).
+    faults_from_state: str | None = None
     #: The simulator runs on this long after the executor stops (finished, aborted or
     #: killed) to show what the vehicle does by itself, s.
     run_on_s: float = 0.0
@@ -137,6 +141,7 @@ def load_scenario(source: str | Path, **overrides: Any) -> Scenario:
             raise ConfigError(f"file {files[key]} not found", key=key, path=where)
     vehicle = doc.get("vehicle", {})
     faults_doc = dict(doc.get("faults", {}))
+    from_state = faults_doc.pop("from_state", None)
     fault_kwargs: dict[str, Any] = {}
     for key, value in faults_doc.items():
         if key in ("link_cuts", "altimeter_dropouts", "position_loss"):
@@ -182,5 +187,6 @@ def load_scenario(source: str | Path, **overrides: Any) -> Scenario:
         current_east_m_s=float(current.get("east_m_s", 0.0)),
         pitch_loop=pitch_loop, seed=int(vehicle.get("seed", 0)), sensors=sensors, link_timeout_s=link_timeout_s,
         attitude=attitude, autopilot_params={k: float(v) for k, v in autopilot.items()}, topside=topside,
+        faults_from_state=None if from_state is None else str(from_state),
     )
     return replace(scenario, **overrides) if overrides else scenario

@@ -36,7 +36,11 @@ class ExecutorConfig:
     speed_m_s : float
         Along-track speed of the setpoint, m/s (and the pitch loop's prediction).
     accel_m_s2 : float
-        How fast the setpoint's speed changes at a leg's start and end, m/s/s.
+        The horizontal setpoint's acceleration and braking along a leg, m/s^2 (default
+        1.0: ArduSub 4.5's own WPNAV_ACCEL, 100 cm/s^2, so the setpoint asks no more than
+        the vehicle's position controller would do itself).
+    vertical_accel_m_s2 : float
+        The depth setpoint's acceleration and braking, m/s^2 (gentle: near the seabed).
     lead_limit_m : float
         The setpoint never runs further ahead of the vehicle than this along the leg, m.
     vertical_speed_m_s : float
@@ -99,7 +103,8 @@ class ExecutorConfig:
     settle_timeout_s: float = 90.0
     waypoint_timeout_margin: float = 3.0
     speed_m_s: float = 0.25
-    accel_m_s2: float = 0.25
+    accel_m_s2: float = 1.0
+    vertical_accel_m_s2: float = 0.25
     lead_limit_m: float = 1.0
     vertical_speed_m_s: float = 0.5
     ascent_speed_m_s: float = 0.3
@@ -122,6 +127,7 @@ class ExecutorConfig:
 
     def __post_init__(self) -> None:
         for name in ("control_period_s", "acceptance_radius_m", "settle_tolerance_m", "speed_m_s", "accel_m_s2",
+                     "vertical_accel_m_s2",
                      "lead_limit_m", "vertical_speed_m_s", "ascent_speed_m_s", "telemetry_stale_s",
                      "altimeter_timeout_s", "navigation_lost_s"):
             value = getattr(self, name)

@@ -71,7 +71,8 @@ class Helm:
         depth_now, _ = self.onboard.depth(now)
         if self._depth_ramp is None:
             self._depth_ramp = DepthRamp(max(depth_now, 0.0) if math.isfinite(depth_now) else 0.0,
-                                         vertical_speed_m_s=cfg.vertical_speed_m_s, accel_m_s2=cfg.accel_m_s2)
+                                         vertical_speed_m_s=cfg.vertical_speed_m_s,
+                                         accel_m_s2=cfg.vertical_accel_m_s2)
         if math.isfinite(seabed) and math.isfinite(seabed_std) and seabed_std <= cfg.max_seabed_std_m:
             try:
                 cmd = safe_depth_for_altitude(altitude_m, seabed_depth_m=seabed, seabed_std_m=seabed_std,
