@@ -2,8 +2,14 @@
 
 Subcommands live one per module in :mod:`planner.commands`; each module exposes
 ``register(subparsers)`` and sets ``func`` on its parser with ``set_defaults``. The
-function returns an exit code. Bad input (``ValueError``/``OSError`` subclasses raised by
-the packages) is reported on stderr with exit code 2.
+function returns an exit code.
+
+Bad input ends in exit code 2 and ONE line on stderr, ``shadowsurvey COMMAND: error: ...``,
+naming the file (or option) and what is wrong: argparse's own complaints (an unknown
+option, a value its ``type=`` refused, see :mod:`planner.commands.args`) and every
+``ValueError``/``OSError`` the packages raise (each package's ``errors.py``). Ctrl-C ends
+in exit code 130. Helper modules of :mod:`planner.commands` without ``register`` (such as
+:mod:`planner.commands.args`) are not subcommands.
 """
 
 from __future__ import annotations
@@ -13,15 +19,47 @@ import importlib
 import pkgutil
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 import planner.commands
 
 EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+
+class _ParseFailure(Exception):
+    """argparse refused the command line; ``message`` is its complaint, ``prog`` the command."""
+
+    def __init__(self, prog: str, message: str):
+        super().__init__(message)
+        self.prog = prog
+        self.message = message
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line (no usage block), raised to :func:`main`."""
+
+    def error(self, message: str) -> NoReturn:
+        raise _ParseFailure(self.prog, message)
+
+
+def one_line(text: str) -> str:
+    """``text`` on one line: its lines joined with "; " (a message must never span lines)."""
+    return "; ".join(part.strip() for part in str(text).splitlines() if part.strip())
+
+
+def _message(exc: BaseException) -> str:
+    """The exception's text and notes (:meth:`BaseException.add_note`) on one line."""
+    parts = [str(exc), *getattr(exc, "__notes__", ())]
+    if isinstance(exc, KeyboardInterrupt):
+        parts = parts[1:]
+    return one_line("\n".join(p for p in parts if p)) or ("" if isinstance(exc, KeyboardInterrupt)
+                                                            else type(exc).__name__)
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Build the parser with every subcommand found in :mod:`planner.commands`."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="shadowsurvey",
         description=(
             "Dual-altitude sonar surveys for ArduSub ROVs: plan, fly (or dry-run in the "
@@ -34,22 +72,30 @@ def build_parser() -> argparse.ArgumentParser:
         if info.name.startswith("_"):
             continue
         module = importlib.import_module(f"planner.commands.{info.name}")
-        module.register(sub)
+        if hasattr(module, "register"):
+            module.register(sub)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``shadowsurvey`` console script; returns the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except _ParseFailure as exc:
+        print(f"{exc.prog}: error: {one_line(exc.message)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except SystemExit as exc:  # --help, --version
+        return exc.code if isinstance(exc.code, int) else 0
     try:
         code = int(args.func(args))
     except (ValueError, OSError) as exc:
-        print(f"shadowsurvey {args.command}: error: {exc}", file=sys.stderr)
+        print(f"shadowsurvey {args.command}: error: {_message(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print(f"shadowsurvey {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        print(f"shadowsurvey {args.command}: interrupted{'; ' + _message(exc) if _message(exc) else ''}",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
     return code
 
 

@@ -19,8 +19,14 @@ from typing import Any
 
 from perception.sonar_io.beams import TABLES, load_beam_table
 from planner.errors import ConfigError
+from planner.settings_table import SettingsTable as _Table
 
 SETTINGS_VERSION = 1
+#: Largest slant range, altitude or range window a setting may give, m (forward-looking
+#: sonars see tens of metres; this catches unit slips).
+MAX_RANGE_M = 1000.0
+#: Deepest depth a setting may give, m (the deepest ocean).
+MAX_DEPTH_M = 11_000.0
 
 
 @dataclass(frozen=True)
@@ -112,71 +118,23 @@ class Settings:
     mission: MissionSettings
     source: str = "<defaults>"
 
+    @property
+    def min_altitude_m(self) -> float:
+        """The lowest altitude above the seabed the vehicle may fly, m: ``vehicle.min_clearance_m``
+        above the tallest expected target (``site.target_height_max_m``).
 
-class _Table:
-    """Typed reads from one TOML table that remember which keys were used."""
-
-    def __init__(self, data: dict[str, Any], name: str, path: str | None):
-        self.data, self.name, self.path = data, name, path
-        self.used: set[str] = set()
-
-    def _key(self, key: str) -> str:
-        return f"{self.name}.{key}"
-
-    def error(self, key: str, message: str) -> ConfigError:
-        return ConfigError(message, key=self._key(key), path=self.path)
-
-    def has(self, key: str) -> bool:
-        return key in self.data
-
-    def number(
-        self,
-        key: str,
-        *,
-        lo: float | None = None,
-        hi: float | None = None,
-        lo_open: bool = False,
-        default: float | None = None,
-    ) -> float:
-        self.used.add(key)
-        if key not in self.data:
-            if default is None:
-                raise self.error(key, "missing")
-            return default
-        value = self.data[key]
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise self.error(key, f"must be a number, got {value!r}")
-        v = float(value)
-        if not math.isfinite(v):
-            raise self.error(key, f"must be finite, got {value!r}")
-        if lo is not None and (v <= lo if lo_open else v < lo):
-            raise self.error(key, f"must be {'>' if lo_open else '>='} {lo:g}, got {v:g}")
-        if hi is not None and v > hi:
-            raise self.error(key, f"must be <= {hi:g}, got {v:g}")
-        return v
-
-    def string(self, key: str, choices: tuple[str, ...], *, default: str | None = None) -> str:
-        self.used.add(key)
-        if key not in self.data:
-            if default is None:
-                raise self.error(key, "missing")
-            return default
-        value = self.data[key]
-        if not isinstance(value, str) or value not in choices:
-            raise self.error(key, f"must be one of {', '.join(choices)}; got {value!r}")
-        return value
-
-    def finish(self) -> None:
-        unknown = sorted(set(self.data) - self.used)
-        if unknown:
-            raise self.error(unknown[0], "unknown setting (check the spelling)")
+        The clearance means this one thing everywhere: the planner keeps the lower pass at
+        or above it, the safety envelope (:mod:`planner.mission.safety`) never commands a
+        depth below it (plus 3 sigma of the seabed estimate), the altitude warnings
+        (:mod:`planner.mission.altitude_watch`) flag any excursion below it.
+        """
+        return self.site.target_height_max_m + self.vehicle.min_clearance_m
 
 
 def _table(root: dict[str, Any], name: str, path: str | None) -> _Table:
     value = root.get(name)
-    if not isinstance(value, dict):
-        raise ConfigError("missing table" if value is None else "must be a table",
-                          key=name, path=path)
+    if value is None:
+        raise ConfigError("missing table", key=name, path=path)
     return _Table(value, name, path)
 
 
@@ -190,8 +148,8 @@ def _sonar(t: _Table) -> SonarSettings:
         table_name = t.string("beam_table", TABLES)
         fan = load_beam_table(table_name).fan_width_rad
     aperture = math.radians(t.number("elevation_aperture_deg", lo=0.0, hi=90.0, lo_open=True))
-    start = t.number("window_start_m", lo=0.0)
-    end = t.number("window_end_m", lo=0.0, lo_open=True)
+    start = t.number("window_start_m", lo=0.0, hi=MAX_RANGE_M)
+    end = t.number("window_end_m", lo=0.0, hi=MAX_RANGE_M, lo_open=True)
     if end <= start:
         raise t.error("window_end_m", f"must exceed window_start_m ({start:g} m), got {end:g}")
     samples = t.number("samples_per_beam", lo=2.0, hi=100000.0)
@@ -203,14 +161,14 @@ def _sonar(t: _Table) -> SonarSettings:
 
 def _vehicle(t: _Table) -> VehicleSettings:
     speed = t.number("speed_m_s", lo=0.0, hi=10.0, lo_open=True)
-    radius = t.number("turn_radius_m", lo=0.0, default=0.0)
+    radius = t.number("turn_radius_m", lo=0.0, hi=1000.0, default=0.0)
     yaw_rate = math.radians(t.number("yaw_rate_deg_s", lo=0.0, hi=360.0, lo_open=True,
                                      default=30.0))
-    max_depth = t.number("max_depth_m", lo=0.0, lo_open=True)
-    min_depth = t.number("min_depth_m", lo=0.0, default=0.5)
+    max_depth = t.number("max_depth_m", lo=0.0, hi=MAX_DEPTH_M, lo_open=True)
+    min_depth = t.number("min_depth_m", lo=0.0, hi=MAX_DEPTH_M, default=0.5)
     if min_depth >= max_depth:
         raise t.error("min_depth_m", f"must be below max_depth_m ({max_depth:g}), got {min_depth:g}")
-    clearance = t.number("min_clearance_m", lo=0.0, lo_open=True)
+    clearance = t.number("min_clearance_m", lo=0.0, hi=100.0, lo_open=True)
     tilt_min = t.number("tilt_min_deg", lo=-90.0, hi=90.0, default=0.0)
     tilt_max = t.number("tilt_max_deg", lo=-90.0, hi=90.0, default=60.0)
     if tilt_max <= tilt_min:
@@ -221,9 +179,9 @@ def _vehicle(t: _Table) -> VehicleSettings:
 
 
 def _site(t: _Table) -> SiteSettings:
-    depth = t.number("water_depth_m", lo=0.0, lo_open=True)
-    h_min = t.number("target_height_min_m", lo=0.0, lo_open=True)
-    h_max = t.number("target_height_max_m", lo=0.0, lo_open=True)
+    depth = t.number("water_depth_m", lo=0.0, hi=MAX_DEPTH_M, lo_open=True)
+    h_min = t.number("target_height_min_m", lo=0.0, hi=100.0, lo_open=True)
+    h_max = t.number("target_height_max_m", lo=0.0, hi=100.0, lo_open=True)
     if h_max < h_min:
         raise t.error("target_height_max_m",
                       f"must be >= target_height_min_m ({h_min:g}), got {h_max:g}")
@@ -240,28 +198,28 @@ def _survey(t: _Table) -> SurveySettings:
     raw = t.data.get("lane_heading_deg", "auto")
     if raw != "auto":
         heading = math.radians(t.number("lane_heading_deg", lo=-360.0, hi=360.0)) % math.pi
-    margin = t.number("obstacle_margin_m", lo=0.0, lo_open=True, default=1.0)
+    margin = t.number("obstacle_margin_m", lo=0.0, hi=1000.0, lo_open=True, default=1.0)
     budget = t.number("edge_loss_budget", lo=0.0, hi=0.5, default=0.004)
     t.finish()
     return SurveySettings(overlap, heading, margin, budget)
 
 
 def _altitudes(t: _Table) -> AltitudeSettings:
-    a_min = t.number("altitude_min_m", lo=0.0, lo_open=True, default=0.3)
-    a_max = t.number("altitude_max_m", lo=0.0, lo_open=True)
+    a_min = t.number("altitude_min_m", lo=0.0, hi=MAX_RANGE_M, lo_open=True, default=0.3)
+    a_max = t.number("altitude_max_m", lo=0.0, hi=MAX_RANGE_M, lo_open=True)
     if a_max <= a_min:
         raise t.error("altitude_max_m", f"must exceed altitude_min_m ({a_min:g}), got {a_max:g}")
-    std = t.number("filter_dh_std_m", lo=0.0, lo_open=True)
-    ratio = t.number("dh_min_over_std", lo=1.0)
-    margin = t.number("shadow_margin_m", lo=0.0, default=0.05)
-    min_samples = t.number("min_pass_samples_per_cm", lo=0.0, default=1.0)
+    std = t.number("filter_dh_std_m", lo=0.0, hi=10.0, lo_open=True)
+    ratio = t.number("dh_min_over_std", lo=1.0, hi=1e6)
+    margin = t.number("shadow_margin_m", lo=0.0, hi=100.0, default=0.05)
+    min_samples = t.number("min_pass_samples_per_cm", lo=0.0, hi=1e4, default=1.0)
     t.finish()
     return AltitudeSettings(a_min, a_max, std, ratio, margin, min_samples)
 
 
 def _mission(t: _Table) -> MissionSettings:
     ref = t.string("altitude_reference", ("seabed", "depth"), default="seabed")
-    radius = t.number("acceptance_radius_m", lo=0.0, lo_open=True, default=1.0)
+    radius = t.number("acceptance_radius_m", lo=0.0, hi=1000.0, lo_open=True, default=1.0)
     t.finish()
     return MissionSettings(ref, radius)
 
@@ -302,6 +260,8 @@ def parse_settings_text(text: str, *, path: str | None = None) -> Settings:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"not valid TOML: {exc}", path=path) from exc
+    except RecursionError:
+        raise ConfigError("not valid TOML: nested too deeply", path=path) from None
     return parse_settings(data, path=path)
 
 
@@ -315,9 +275,11 @@ def load_settings(path: str | Path) -> Settings:
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = p.read_bytes().decode("utf-8")
     except OSError as exc:
-        raise ConfigError(f"cannot read settings file: {exc.strerror}", path=str(p)) from exc
+        raise ConfigError(f"cannot read settings file: {exc.strerror or exc}", path=str(p)) from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"not UTF-8 text ({exc.reason} at byte {exc.start})", path=str(p)) from None
     return parse_settings_text(text, path=str(p))
 
 

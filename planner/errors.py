@@ -18,6 +18,10 @@ class ConfigError(ValueError):
         self.path = path
 
 
+class OutputFolderError(FileExistsError):
+    """An output folder cannot be written without overwriting something; the message names it."""
+
+
 class InfeasibleError(ValueError):
     """No choice satisfies the constraints; ``reason`` says which one fails."""
 

@@ -6,7 +6,11 @@ what lets the tests drive them with a fake transport.
 
 When a duplicate item crosses a re-request ArduPilot answers MISSION_ACK with
 MAV_MISSION_INVALID_SEQUENCE and carries on (``MissionItemProtocol::handle_mission_item``):
-that ack is ignored, not treated as failure.
+that ack is ignored, not treated as failure. When the final MISSION_ACK is lost, the last
+item is sent again, and ArduSub 4.5, no longer receiving, answers MAV_MISSION_ERROR
+(``GCS_MAVLINK::handle_mission_item``): after every item was requested that means the
+upload ended, not that it failed; the machine ends ``unconfirmed`` and the download that
+verifies the mission decides.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from vehicle_link.mission import MissionItem, mission_result_name
 
 MAV_MISSION_ACCEPTED = mavlink2.MAV_MISSION_ACCEPTED
 MAV_MISSION_INVALID_SEQUENCE = mavlink2.MAV_MISSION_INVALID_SEQUENCE
+MAV_MISSION_ERROR = mavlink2.MAV_MISSION_ERROR
 
 
 # ---- actions the state machines ask for -------------------------------------------------
@@ -80,6 +85,8 @@ class MissionUpload:
     requested: set[int] = field(default_factory=set)
     items_sent: int = 0
     ignored_acks: int = 0
+    #: Ended without the vehicle's ACCEPTED (its final ack lost): verify by download.
+    unconfirmed: bool = False
     _retries: int = 0
     _last_sent: int | None = None
 
@@ -112,6 +119,10 @@ class MissionUpload:
             else:  # a stale ack from an earlier transaction
                 self.ignored_acks += 1
             return []
+        if result == MAV_MISSION_ERROR and len(self.requested) == len(self.items) \
+                and self.items_sent > len(self.items):
+            self.done = self.unconfirmed = True  # the answer to our resend after the end
+            return []
         raise MissionError(
             f"vehicle refused the mission upload: {mission_result_name(result)}", result
         )
@@ -128,6 +139,7 @@ class MissionUpload:
             )
         if self._last_sent is None:
             return [SendCount(len(self.items))]
+        self.items_sent += 1
         return [SendItem(self._last_sent, self.items[self._last_sent])]
 
 

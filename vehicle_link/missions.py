@@ -36,7 +36,8 @@ class MissionLink(VehicleLink):
     ) -> list[MissionItem]:
         """Upload a mission; return the wire list (home placeholder first when ``home_slot``).
 
-        With ``verify`` the mission is downloaded again and compared item by item.
+        With ``verify`` the mission is downloaded again and compared item by item (always
+        when the vehicle's final acknowledgement was lost).
 
         Raises
         ------
@@ -49,8 +50,8 @@ class MissionLink(VehicleLink):
         """
         wire = ardupilot_wire_items(items) if home_slot else list(items)
         with self.mission_channel() as channel:
-            mission_io.upload(channel, wire, **self._mission_kwargs())  # type: ignore[arg-type]
-        if verify:
+            machine = mission_io.upload(channel, wire, **self._mission_kwargs())  # type: ignore[arg-type]
+        if verify or machine.unconfirmed:
             verify_items(wire, self.download_mission(home_slot=False), skip_home=home_slot)
         return wire
 

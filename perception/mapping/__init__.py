@@ -1,5 +1,6 @@
 """The 2.5D map: georeference, mosaic, drift registration, heights layer, map products."""
 
+from perception.atomic_file import atomic_write, atomic_write_text
 from perception.geodesy import LocalOrigin
 from perception.mapping.builder import MosaicBuilder, masks_from_shadows
 from perception.mapping.fan import frame_to_fan, polar_to_fan
@@ -8,8 +9,6 @@ from perception.mapping.heights_layer import MappedTarget, height_raster, target
 from perception.mapping.mosaic import MosaicConfig, TiledMosaic, placement_from_frame, project_frame
 from perception.mapping.products import (
     MapRaster,
-    atomic_write,
-    atomic_write_text,
     map_raster,
     write_footprints_geojson,
     write_geotiff,

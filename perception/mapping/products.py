@@ -1,16 +1,15 @@
 """Writing the 2.5D map: GeoTIFF, PNG with a world file, GeoJSON of the targets.
 
-Every file is written to a temporary name and renamed into place, so a crash mid-write
-never leaves a broken file, and an earlier complete version survives until replaced.
+Every file is written through :mod:`perception.atomic_file` (temporary name, fsync, rename),
+so a crash mid-write never leaves a broken file, and an earlier complete version survives
+until replaced.
 """
 
 from __future__ import annotations
 
 import io
 import json
-import os
-import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -20,28 +19,10 @@ import cv2
 import numpy as np
 import tifffile
 
+from perception.atomic_file import atomic_write, atomic_write_text
 from perception.geodesy import LocalOrigin, geotiff_tags
 from perception.mapping.heights_layer import MappedTarget, height_raster, targets_feature_collection
 from perception.mapping.mosaic import TiledMosaic
-
-
-def atomic_write(path: Path, write: Callable[[IO[bytes]], object]) -> Path:
-    """Write through ``write(handle)`` to a temporary file, then rename it to ``path``."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            write(handle)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def atomic_write_text(path: Path, text: str) -> Path:
-    """Write UTF-8 text atomically."""
-    return atomic_write(path, lambda h: h.write(text.encode("utf-8")))
 
 
 @dataclass(frozen=True)

@@ -249,6 +249,11 @@ class DriftEstimator:
         """1-sigma of the estimate per axis, m."""
         return math.sqrt(self._variance)
 
+    @property
+    def travelled_m(self) -> float:
+        """Horizontal distance travelled since the mosaic began, as last reported, m."""
+        return self._travelled_m
+
     def plausible_drift_m(self, travelled_m: float) -> float:
         """Largest total drift the navigation prior allows after ``travelled_m`` of track, m."""
         return self.config.drift_floor_m + self.config.drift_per_m * max(travelled_m, 0.0)

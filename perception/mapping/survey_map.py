@@ -44,10 +44,20 @@ SAME_TARGET_RADIUS_M = 0.10
 @dataclass(frozen=True)
 class Drift:
     """The navigation drift registration has found, m (north, east): what is added to a
-    frame's navigation position to put it where the mosaic shows it."""
+    frame's navigation position to put it where the mosaic shows it.
+
+    ``std_m`` is its 1-sigma per axis; ``accepted``/``refused`` count the registrations
+    folded in and turned down; ``travelled_m`` is the track length it rests on and
+    ``plausible_m`` the largest drift the navigation prior allows after that track.
+    """
 
     north_m: float
     east_m: float
+    std_m: float = math.nan
+    accepted: int = 0
+    refused: int = 0
+    travelled_m: float = math.nan
+    plausible_m: float = math.nan
 
 
 class SurveyMap:
@@ -98,7 +108,10 @@ class SurveyMap:
     def drift(self) -> Drift | None:
         """The drift correction so far (None without registration)."""
         d = self._builder.drift
-        return None if d is None else Drift(float(d.north_m), float(d.east_m))
+        if d is None:
+            return None
+        return Drift(float(d.north_m), float(d.east_m), std_m=d.std_m, accepted=d.accepted, refused=d.rejected,
+                     travelled_m=d.travelled_m, plausible_m=d.plausible_drift_m(d.travelled_m))
 
     @property
     def frames_measured(self) -> int:

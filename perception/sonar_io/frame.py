@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from perception.errors import FrameFormatError
+from perception.sonar_io.validate import check_pose, check_range_window, check_real
 
 #: dtypes an image may have (frame-format.md).
 IMAGE_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32))
@@ -52,7 +53,7 @@ def _readonly(array: np.ndarray) -> np.ndarray:
 
 
 def _check_axis(values: Any, key: str, *, dtype: type = np.float64) -> np.ndarray:
-    array: np.ndarray = np.asarray(values, dtype=dtype)
+    array: np.ndarray = np.asarray(check_real(np.asarray(values), key), dtype=dtype)
     if array.ndim != 1:
         raise FrameFormatError(f"must be 1-D, got shape {array.shape}", key=key)
     if array.size < 2:
@@ -146,6 +147,8 @@ class SonarFrame:
             if math.isinf(value):
                 raise FrameFormatError("must be finite or NaN (unknown)", key=name)
             object.__setattr__(self, name, value)
+        check_range_window(range_m)  # physically possible values (perception.sonar_io.validate)
+        check_pose({"timestamp_s": timestamp, **{name: getattr(self, name) for name in OPTIONAL_FIELDS}})
 
     @property
     def n_samples(self) -> int:

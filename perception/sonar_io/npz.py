@@ -10,16 +10,19 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 import zipfile
+import zlib
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from perception.atomic_file import atomic_write
 from perception.errors import FrameFormatError
 from perception.sonar_io.frame import SonarFrame
+from perception.sonar_io.sniff import expect_kind
+from perception.sonar_io.validate import check_real
 
 REQUIRED_KEYS = ("image", "range_m", "beam_azimuth_deg", "elevation_aperture_deg", "timestamp_s")
 
@@ -38,13 +41,29 @@ OPTIONAL_KEYS: dict[str, tuple[str, float]] = {
 
 
 def _load_arrays(path: Path) -> dict[str, np.ndarray]:
+    expect_kind(path, "npz")
+    # The file is opened here, not by np.load: numpy leaves it open when the zip is broken.
+    with open(path, "rb") as handle:
+        try:
+            archive = np.load(handle, allow_pickle=False)
+        except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, NotImplementedError,
+                RuntimeError) as exc:
+            raise FrameFormatError(f"not a readable .npz archive ({exc})", path=str(path)) from exc
+        with archive:
+            return {key: _member(archive, key, path) for key in archive.files}
+
+
+def _member(archive: Any, key: str, path: Path) -> np.ndarray:
     try:
-        with np.load(path, allow_pickle=False) as archive:
-            return {key: archive[key] for key in archive.files}
-    except FileNotFoundError:
-        raise
-    except (zipfile.BadZipFile, EOFError, OSError, ValueError) as exc:
-        raise FrameFormatError(f"not a readable .npz archive ({exc})", path=str(path)) from exc
+        return archive[key]
+    except ValueError as exc:
+        if "allow_pickle" in str(exc):
+            raise FrameFormatError("holds Python objects (pickled), not a numeric array", path=str(path),
+                                   key=key) from None
+        raise FrameFormatError(f"unreadable array ({exc})", path=str(path), key=key) from exc
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, NotImplementedError, RuntimeError, KeyError,
+            MemoryError) as exc:
+        raise FrameFormatError(f"unreadable array ({type(exc).__name__}: {exc})", path=str(path), key=key) from exc
 
 
 def _scalar_series(arrays: dict[str, np.ndarray], key: str, n_frames: int | None, path: str) -> np.ndarray:
@@ -52,10 +71,18 @@ def _scalar_series(arrays: dict[str, np.ndarray], key: str, n_frames: int | None
     value = np.asarray(arrays[key])
     if not np.issubdtype(value.dtype, np.number):
         raise FrameFormatError(f"must be numeric, got dtype {value.dtype}", path=path, key=key)
+    _real(value, key, path)
     expected: tuple[int, ...] = () if n_frames is None else (n_frames,)
     if value.shape != expected:
         raise FrameFormatError(f"must have shape {expected}, got {value.shape}", path=path, key=key)
     return value.astype(np.float64)
+
+
+def _real(value: np.ndarray, key: str, path: str) -> None:
+    try:
+        check_real(value, key)
+    except FrameFormatError as exc:
+        raise FrameFormatError(exc.detail, path=path, key=key) from None
 
 
 def frames_from_arrays(arrays: dict[str, np.ndarray], *, path: str = "<arrays>") -> list[SonarFrame]:
@@ -88,6 +115,7 @@ def frames_from_arrays(arrays: dict[str, np.ndarray], *, path: str = "<arrays>")
         value = np.asarray(arrays[key])
         if not np.issubdtype(value.dtype, np.number):
             raise FrameFormatError(f"must be numeric, got dtype {value.dtype}", path=path, key=key)
+        _real(value, key, path)
         if value.ndim == 1:
             return np.broadcast_to(value, (n_frames or 1, value.size))
         if value.ndim == 2 and n_frames is not None and value.shape[0] == n_frames:
@@ -195,15 +223,8 @@ def frames_to_arrays(frames: Sequence[SonarFrame]) -> dict[str, np.ndarray]:
 
 
 def _atomic_savez(path: Path, arrays: dict[str, np.ndarray], compressed: bool) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            (np.savez_compressed if compressed else np.savez)(handle, **arrays)  # type: ignore[arg-type]
-        os.replace(tmp_name, path)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
+    save = np.savez_compressed if compressed else np.savez
+    atomic_write(path, lambda handle: save(handle, **arrays))  # type: ignore[arg-type]
 
 
 def save_frame(path: str | os.PathLike[str], frame: SonarFrame, *, compressed: bool = True) -> Path:

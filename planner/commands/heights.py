@@ -13,9 +13,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
-import tempfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,9 +21,17 @@ from typing import Any
 
 import numpy as np
 
+from perception.atomic_file import atomic_write_text
 from perception.heights.pipeline import HeightPipeline, TargetHeight
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.readers import open_recording
+from planner.commands import args as args_types
+from planner.commands.frame_checks import (
+    HEIGHTS_SEABED_TOLERANCE_M,
+    check_altitudes,
+    check_delta_h,
+    check_one_scene,
+)
 from planner.errors import UsageError
 
 #: Altitude changes closer than this count as one altitude, m.
@@ -45,12 +51,13 @@ def register(subparsers: Any) -> None:
     parser.add_argument("files", nargs="+", metavar="FRAME_FILE", help=".npz or .aris frames")
     parser.add_argument(
         "--delta-h",
-        type=float,
+        type=args_types.number(-1000.0, 1000.0, unit="m"),
         metavar="M",
         help="altitude change, m: second altitude minus first (exactly two frames)",
     )
     parser.add_argument(
-        "--altitude", type=float, metavar="M", help="first frame's altitude, m, where files lack it"
+        "--altitude", type=args_types.number(0.0, 1000.0, lo_open=True, unit="m"), metavar="M",
+        help="first frame's altitude, m, where files lack it"
     )
     parser.add_argument("--json", metavar="OUT", help="write the JSON document to OUT ('-' = stdout)")
     parser.set_defaults(func=run)
@@ -139,6 +146,7 @@ def resolve_altitudes(
             )
         if not math.isfinite(delta_h_m):
             raise UsageError(f"--delta-h must be finite, got {delta_h_m}")
+        check_delta_h([f.label for f in frames], [f.frame for f in frames], delta_h_m, altitude_m)
         deltas = [0.0, float(delta_h_m)]
         altitudes = [first_altitude + d for d in deltas]
     elif all(f.frame.known("altitude_m") for f in frames):
@@ -230,16 +238,7 @@ def _write_json(out: str, document: dict[str, Any]) -> None:
     if out == "-":
         sys.stdout.write(text)
         return
-    path = Path(out)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write_text(Path(out), text)
 
 
 def compute(
@@ -248,10 +247,19 @@ def compute(
     """Load, check and process the frames; returns the JSON document."""
     frames = load_all(paths)
     check_geometry(frames)
+    check_one_scene([f.label for f in frames], [f.frame for f in frames],
+                    seabed_tolerance_m=HEIGHTS_SEABED_TOLERANCE_M)
     altitudes, deltas = resolve_altitudes(frames, delta_h_m=delta_h_m, altitude_m=altitude_m)
+    check_altitudes([f.label for f in frames], [f.frame for f in frames], altitudes)
     pipeline = HeightPipeline()
     for frame, altitude, delta in zip(frames_of(frames), altitudes, deltas, strict=True):
         pipeline.add_frame(frame, altitude_m=altitude, delta_h_m=delta)
+    reference = pipeline.shared_reference_altitude() if not math.isfinite(altitudes[0]) else None
+    if reference is not None and not reference[0] > 0.0:
+        where = "--delta-h" if delta_h_m is not None else "the frames' sonar_depth_m"
+        raise UsageError(f"{where}: the altitude changes ({', '.join(f'{d:+.3f}' for d in deltas)} m) put "
+                         f"{frames[0].label} at {reference[0]:.2f} m above the seabed, below it: the sign is wrong "
+                         "(the change is each altitude minus the first) or the frames are not of one scene")
     return heights_document(frames, deltas, pipeline.targets())
 
 

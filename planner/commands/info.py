@@ -9,6 +9,7 @@ import math
 import sys
 from typing import Any
 
+from perception.errors import FrameFormatError
 from perception.sonar_io.readers import RecordingInfo, open_recording
 
 #: Timestamps from here on (1990) are shown as UTC dates too (.aris stores Unix time).
@@ -74,7 +75,12 @@ def format_info(info: RecordingInfo) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the summary; 0 on success (bad input raises and the CLI exits 2)."""
+    """Print the summary; 0 for a whole recording.
+
+    A truncated or corrupt recording is described as far as it can be read (stdout), then
+    refused like ``heights`` and ``convert`` refuse it: exit 2, one line on stderr naming
+    the file, the frame and the field.
+    """
     with open_recording(args.file) as recording:
         info = recording.describe()
     if args.json:
@@ -82,4 +88,12 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write("\n")
     else:
         print(format_info(info))
+    sys.stdout.flush()
+    if info.problems:
+        more = f" (and {len(info.problems) - 1} more)" if len(info.problems) > 1 else ""
+        raise FrameFormatError(f"corrupt recording: {info.problems[0]}{more}")
+    if info.truncation:
+        raise FrameFormatError(f"truncated recording: {info.truncation}; the {info.n_frames} complete frames "
+                               f"before it are readable (shadowsurvey convert --frames 0:{info.n_frames})",
+                               path=info.path)
     return 0

@@ -6,10 +6,13 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
+from planner.commands import args as args_types
 from planner.config import default_settings, load_settings
-from planner.errors import UsageError
+from planner.errors import InfeasibleError
+from planner.mission.output_folder import staged_folder
 from planner.survey.area import load_area
 from planner.survey.lawnmower import plan_survey
 from planner.survey.mission_files import summary_text, write_outputs
@@ -28,43 +31,37 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("area", help="survey area (GeoJSON; see planner/data/example_area.geojson)")
     parser.add_argument("--config", help="settings TOML (default: the shipped survey.toml)")
-    parser.add_argument("--out", required=True, help="output folder (created if needed)")
+    parser.add_argument("--out", required=True, help="output folder (created; an existing plan needs --overwrite)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an existing plan folder at --out (it is replaced whole, never mixed)")
     parser.add_argument("--stay-inside", action="store_true",
                         help="keep every path inside the boundary; report the coverage lost")
-    parser.add_argument("--origin", metavar="LAT,LON",
+    parser.add_argument("--origin", metavar="LAT,LON", type=args_types.lat_lon,
                         help="origin of the local frame in degrees (default: the area's centre)")
-    parser.add_argument("--lane-heading-deg", type=float,
-                        help="lane heading, overriding the settings")
+    parser.add_argument("--lane-heading-deg", type=args_types.heading_deg, metavar="DEG",
+                        help="lane heading, -360..360 deg, overriding the settings")
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
     parser.set_defaults(func=run)
-
-
-def _origin(text: str | None) -> tuple[float, float] | None:
-    if text is None:
-        return None
-    try:
-        lat_s, lon_s = text.split(",")
-        lat, lon = float(lat_s), float(lon_s)
-    except ValueError as exc:
-        raise UsageError(f"--origin must be LAT,LON in degrees, got {text!r}") from exc
-    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
-        raise UsageError(f"--origin out of range: {text!r}")
-    return lat, lon
 
 
 def run(args: argparse.Namespace) -> int:
     """Plan and write the outputs; returns the exit code."""
     settings = load_settings(args.config) if args.config else default_settings()
-    area = load_area(args.area, origin=_origin(args.origin))
+    area = load_area(args.area, origin=args.origin)
     heading = None if args.lane_heading_deg is None else math.radians(args.lane_heading_deg)
-    plan = plan_survey(area, settings, stay_inside=args.stay_inside, heading_rad=heading)
-    paths = write_outputs(plan, area, args.out, altitude_reference=settings.mission.altitude_reference)
-    if not args.no_plot:
-        from planner.survey.plot import plot_plan  # matplotlib only when a plot is wanted
+    try:
+        plan = plan_survey(area, settings, stay_inside=args.stay_inside, heading_rad=heading)
+    except InfeasibleError as exc:
+        raise InfeasibleError(f"cannot plan {args.area} with {settings.source}: {exc.reason}") from exc
+    out = Path(args.out)
+    with staged_folder(out, kind="plan", overwrite=args.overwrite, keep_partial=False) as stage:
+        paths = write_outputs(plan, area, stage,
+                              altitude_reference=settings.mission.altitude_reference)
+        if not args.no_plot:
+            from planner.survey.plot import plot_plan  # matplotlib only when a plot is wanted
 
-        png = paths["plan_json"].parent / "survey.png"
-        plot_plan(plan, area, png)
-        paths["png"] = png
+            paths["png"] = stage / "survey.png"
+            plot_plan(plan, area, paths["png"])
     sys.stdout.write(summary_text(plan))
-    sys.stdout.write("wrote " + ", ".join(str(p) for p in paths.values()) + "\n")
+    sys.stdout.write("wrote " + ", ".join(str(out / p.relative_to(stage)) for p in paths.values()) + "\n")
     return 0

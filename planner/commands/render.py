@@ -24,22 +24,24 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
+from perception.atomic_file import atomic_write, atomic_write_bytes
+from perception.errors import FrameFormatError
 from perception.mapping.fan import frame_to_fan
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.npz import save_frame
+from planner.commands import args as args_types
 from planner.errors import UsageError
 from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
 from sim_harness.sonar.scene import builtin_scenes, load_scene
 from sim_harness.sonar.truth import FrameTruth
 from sim_harness.sonar.viewpoint import scene_pose
+from sim_harness.world.errors import PoseError, SonarConfigError, WorldError
 
 #: Height of the preview PNG, pixels (polar image left, fan image right).
 PREVIEW_HEIGHT_PX = 800
@@ -48,10 +50,7 @@ PREVIEW_HEIGHT_PX = 800
 def _noise_floor(text: str) -> float | None:
     if text.lower() == "none":
         return None
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected dB or 'none', got {text!r}") from None
+    return args_types.finite(text)
 
 
 def register(subparsers: Any) -> None:
@@ -62,22 +61,24 @@ def register(subparsers: Any) -> None:
         description=__doc__.split("```")[0].strip() if __doc__ else None,
     )
     p.add_argument("scene", metavar="SCENE", help=f"scene file or built-in name ({', '.join(builtin_scenes())})")
-    p.add_argument("--altitude", type=float, nargs="+", required=True, metavar="M",
+    p.add_argument("--altitude", type=args_types.positive, nargs="+", required=True, metavar="M",
                    help="sonar altitude(s) above the seabed, m")
-    p.add_argument("--tilt-deg", type=float, default=None, help="mount tilt (down), deg; default: chosen")
+    p.add_argument("--tilt-deg", type=args_types.number(-90.0, 90.0, unit="deg"), default=None,
+                   help="mount tilt (down), deg; default: chosen")
     p.add_argument("--out", type=Path, default=None, help="output folder (default render-<scene>)")
-    p.add_argument("--north-m", type=float, default=None, help="sonar north, m (default: viewpoint)")
-    p.add_argument("--east-m", type=float, default=None, help="sonar east, m (default: viewpoint)")
-    p.add_argument("--line", type=float, nargs=4, metavar=("N0", "E0", "N1", "E1"), default=None,
+    p.add_argument("--north-m", type=args_types.finite, default=None, help="sonar north, m (default: viewpoint)")
+    p.add_argument("--east-m", type=args_types.finite, default=None, help="sonar east, m (default: viewpoint)")
+    p.add_argument("--line", type=args_types.finite, nargs=4, metavar=("N0", "E0", "N1", "E1"), default=None,
                    help="sweep positions along a line (with --count)")
-    p.add_argument("--count", type=int, default=2, help="positions on --line (>= 2)")
-    p.add_argument("--heading-deg", type=float, nargs="+", default=None, help="heading(s), deg")
-    p.add_argument("--window-start-m", type=float, default=None, help="range window start, m (scene/ARIS default)")
-    p.add_argument("--window-length-m", type=float, default=None, help="range window length, m")
-    p.add_argument("--samples", type=int, default=None, help="samples per beam")
-    p.add_argument("--speckle-looks", type=float, default=None, help="speckle looks (0 = none)")
+    p.add_argument("--count", type=args_types.integer(2, 100000), default=2, help="positions on --line (>= 2)")
+    p.add_argument("--heading-deg", type=args_types.heading_deg, nargs="+", default=None, help="heading(s), deg")
+    p.add_argument("--window-start-m", type=args_types.nonnegative, default=None,
+                   help="range window start, m (scene/ARIS default)")
+    p.add_argument("--window-length-m", type=args_types.positive, default=None, help="range window length, m")
+    p.add_argument("--samples", type=args_types.integer(2, 100000), default=None, help="samples per beam")
+    p.add_argument("--speckle-looks", type=args_types.nonnegative, default=None, help="speckle looks (0 = none)")
     p.add_argument("--noise-floor-db", type=_noise_floor, default="12", help="noise floor, dB, or 'none'")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=args_types.integer(0, 2**32 - 1), default=0)
     p.add_argument("--aris", type=Path, default=None, help="also write all frames as one .aris file")
     p.add_argument("--no-preview", action="store_true", help="skip the PNG previews")
     p.set_defaults(func=run)
@@ -129,22 +130,18 @@ def _write_png(path: Path, image: np.ndarray) -> None:
     ok, data = cv2.imencode(".png", image)
     if not ok:
         raise OSError(f"{path}: PNG encoding failed")
-    _atomic_write(path, data.tobytes())
-
-
-def _atomic_write(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write_bytes(path, data.tobytes())
 
 
 def run(args: argparse.Namespace) -> int:
-    """Render the frames; returns the exit code."""
+    """Render the frames; returns the exit code (2, naming the scene, when it cannot be rendered)."""
+    try:
+        return _render(args)
+    except (PoseError, SonarConfigError, WorldError, FrameFormatError) as exc:
+        raise UsageError(f"{args.scene}: cannot render this scene with these options: {exc}") from exc
+
+
+def _render(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene)
     config = _config(args, scene.sonar)
     renderer = SonarRenderer(scene.world, config)
@@ -184,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
         "sonar": _config_json(config),
         "frames": records,
     }
-    _atomic_write(out / "truth.json", json.dumps(document, indent=1).encode("utf-8"))
+    atomic_write_bytes(out / "truth.json", json.dumps(document, indent=1).encode("utf-8"))
     if args.aris is not None:
         from perception.sonar_io.aris.reader import write_aris
 
@@ -195,15 +192,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _save_truth_images(path: Path, truth: FrameTruth) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        with open(tmp, "wb") as handle:
-            np.savez_compressed(handle, labels=truth.labels, owner=truth.owner)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write(path, lambda handle: np.savez_compressed(handle, labels=truth.labels, owner=truth.owner))
 
 
 def _config_json(config: SonarConfig) -> dict[str, Any]:

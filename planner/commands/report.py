@@ -12,6 +12,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from planner.commands import args as args_types
 from planner.errors import UsageError
 from planner.report.markdown import DEFAULT_MATCH_RADIUS_M, generate_report
 
@@ -24,10 +25,12 @@ def register(subparsers: Any) -> None:
         description=__doc__.split("\n\n")[1] if __doc__ else None,
     )
     parser.add_argument("run_dir", metavar="RUN_DIR", help="the run folder of a dive")
-    parser.add_argument("--match-radius-m", type=float, default=DEFAULT_MATCH_RADIUS_M, metavar="M",
+    parser.add_argument("--match-radius-m", type=args_types.number(0.0, 1000.0, lo_open=True, unit="m"),
+                        default=DEFAULT_MATCH_RADIUS_M, metavar="M",
                         help="largest distance between an estimated and a true target to score them as one, m "
                         f"(simulation runs; default {DEFAULT_MATCH_RADIUS_M:g})")
-    parser.add_argument("--dpi", type=int, default=110, help="figure resolution, dots per inch (default 110)")
+    parser.add_argument("--dpi", type=args_types.integer(20, 600), default=110,
+                        help="figure resolution, dots per inch, 20..600 (default 110)")
     parser.set_defaults(func=run)
 
 
@@ -36,7 +39,5 @@ def run(args: argparse.Namespace) -> int:
     run_dir = Path(args.run_dir)
     if not run_dir.is_dir():
         raise UsageError(f"{run_dir}: not a run folder (no such directory)")
-    if not 20 <= args.dpi <= 600:
-        raise UsageError(f"--dpi must be between 20 and 600, got {args.dpi}")
     print(generate_report(run_dir, match_radius_m=args.match_radius_m, dpi=args.dpi))
     return 0

@@ -20,13 +20,16 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from planner.config import default_settings, load_settings
+from planner.commands import args as args_types
+from planner.config import Settings, default_settings, load_settings
 from planner.errors import UsageError
+from planner.mission.altitude_watch import AltitudeLimits, DiveWatch
 from planner.mission.executor import ExecutorConfig, MissionExecutor, PlanTilt
 from planner.mission.onboard import OnboardConfig, OnboardPerception
+from planner.mission.output_folder import check_output_folder, staged_folder
 from planner.mission.preflight import PreflightReport
 from planner.mission.products import summary_document, write_products
-from planner.mission.run_folder import RunFolder
+from planner.mission.run_folder import RunFolder, mark_partial
 from planner.mission.safety import SafetyLimits
 from planner.mission.sonar_sources import DirectorySonarSource
 from planner.pitch.control import ShadowPitchLoop
@@ -47,12 +50,14 @@ def register(subparsers: Any) -> None:
         help="fly a planned survey on a real vehicle (asks before arming)",
         description="Fly plan.json (from `shadowsurvey plan`) on an ArduSub 4.5 vehicle over MAVLink.",
     )
-    parser.add_argument("--connect", required=True,
+    parser.add_argument("--connect", required=True, type=args_types.connection_string,
                         help="MAVLink connection, e.g. udpin:0.0.0.0:14770 (a BlueOS UDP client endpoint to "
                              "this port), udpout:192.168.2.2:14550, tcp:127.0.0.1:5777")
     parser.add_argument("--plan", required=True, help="folder written by `shadowsurvey plan` (or its plan.json)")
     parser.add_argument("--config", help="the settings TOML the plan was made with (default: shipped)")
-    parser.add_argument("--out", default="runs/dive", help="run folder (default: runs/dive)")
+    parser.add_argument("--out", default="runs/dive",
+                        help="run folder (default: runs/dive; an existing run needs --overwrite)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing run folder at --out")
     parser.add_argument("--sonar-dir", help="folder where the sonar driver drops .npz frames")
     parser.add_argument("--fixed-tilt", action="store_true", help="hold the plan's tilts (no pitch loop)")
     parser.add_argument("--on-link-loss", choices=("hold", "surface"), default="surface",
@@ -81,29 +86,47 @@ def confirm_arming(plan_text: str, *, stdin: TextIO | None = None, stdout: TextI
     return answer.strip() == "ARM"
 
 
-def _plan_text(args: argparse.Namespace, plan: SurveyPlan, max_depth_m: float, clearance_m: float) -> str:
+def _plan_text(args: argparse.Namespace, plan: SurveyPlan, settings: Settings) -> str:
     passes = ", ".join(f"{p.name}: {p.altitude_m:.2f} m altitude, tilt {p.tilt_rad * 57.2958:.1f} deg, "
                        f"{p.length_m:.0f} m" for p in plan.passes)
-    return (f"plan {args.plan}: {len(plan.passes)} passes ({passes}); depth limit {max_depth_m} m, clearance "
-            f"{clearance_m} m; on abort or Ctrl-C: {args.safe_action}; on link loss: {args.on_link_loss}")
+    return (f"plan {args.plan}: {len(plan.passes)} passes ({passes}); depth limit {settings.vehicle.max_depth_m} m, "
+            f"clearance {settings.vehicle.min_clearance_m} m over the tallest target (never below "
+            f"{settings.min_altitude_m:.2f} m above the seabed); on abort or Ctrl-C: {args.safe_action}; "
+            f"on link loss: {args.on_link_loss}")
 
 
 def run(args: argparse.Namespace) -> int:
-    """Connect, check, confirm, fly, write the run folder; exit 0 when completed."""
+    """Connect, check, confirm, fly, write the run folder; exit 0 when completed.
+
+    The run is built in a staged folder and moved to ``--out`` when complete; a crash
+    leaves it beside, marked partial (:mod:`planner.mission.output_folder`). Ctrl-C
+    during the dive commands the safe action and still writes the whole run folder.
+    """
+    check_output_folder(Path(args.out), kind="run", overwrite=args.overwrite)
     plan = load_plan(args.plan)
     settings = load_settings(args.config) if args.config else default_settings()
     sonar = DirectorySonarSource(Path(args.sonar_dir)) if args.sonar_dir else None
-    text = _plan_text(args, plan, settings.vehicle.max_depth_m, settings.vehicle.min_clearance_m)
+    with staged_folder(Path(args.out), kind="run", overwrite=args.overwrite, on_failure=mark_partial) as stage:
+        summary = _fly(args, plan, settings, sonar, stage)
+    generate_report(Path(args.out))
+    print(f"dive {summary['status']}: {summary['message'] or summary['reason']}; run folder {args.out}")
+    if summary["reason"] == "arming_not_confirmed":
+        raise UsageError("arming not confirmed: the vehicle was not armed")
+    return 0 if summary["status"] == "completed" else 1
+
+
+def _fly(args: argparse.Namespace, plan: SurveyPlan, settings: Settings, sonar: Any, out: Path) -> dict[str, Any]:
+    """Connect, check, ask, fly the dive into the run folder ``out``; returns the summary."""
+    text = _plan_text(args, plan, settings)
 
     def confirm(report: PreflightReport) -> bool:
         lines = "\n".join(f"  {line}" for line in report.lines())
         return args.yes or confirm_arming(f"pre-flight checks passed:\n{lines}\n{text}")
 
     clock = WallClock()
-    run_folder = RunFolder(Path(args.out))
+    run_folder = RunFolder(out)
     config = ExecutorConfig(
-        safety=SafetyLimits(min_clearance_m=settings.vehicle.min_clearance_m,
-                            depth_limit_m=settings.vehicle.max_depth_m),
+        safety=SafetyLimits(min_clearance_m=settings.min_altitude_m, depth_limit_m=settings.vehicle.max_depth_m),
         speed_m_s=settings.vehicle.speed_m_s, acceptance_radius_m=settings.mission.acceptance_radius_m,
         link_lost_action=args.on_link_loss, abort_action=args.safe_action, finish_action=args.safe_action,
         topside="absent" if args.no_topside else "required", set_ekf_origin=args.set_origin,
@@ -111,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
     onboard = OnboardPerception(OnboardConfig())
     tilt = PlanTilt() if args.fixed_tilt else ShadowPitchLoop(plan, settings)
     link = LinkConfig(args.connect, source_component=args.component_id, max_depth_m=settings.vehicle.max_depth_m,
-                      min_clearance_m=settings.vehicle.min_clearance_m,
+                      min_clearance_m=settings.min_altitude_m,
                       tlog_path=str(run_folder.path("dive.tlog")), link_timeout_s=5.0, heartbeat_period_s=0.5)
     executors: list[MissionExecutor] = []
 
@@ -125,20 +148,22 @@ def run(args: argparse.Namespace) -> int:
 
     wall0 = time.perf_counter()
     client = ArduSubClient(link, clock=clock, on_link_lost=lost, on_link_restored=restored)
+    limits = AltitudeLimits(tuple(p.altitude_m for p in plan.passes), settings.min_altitude_m)
+    watch = DiveWatch(limits, run_folder.event)
     executor = MissionExecutor(client, sonar, plan, config, run_folder, clock, onboard, tilt=tilt,
-                               confirm_arm=confirm)
+                               on_cycle=watch.on_cycle, confirm_arm=confirm)
     executors.append(executor)
     client.add_listener(onboard.listener)
     try:
         result = executor.run_dive()  # Ctrl-C inside: the safe action, then a result
     finally:
         client.close()
-        write_products(run_folder, executor.onboard, executor.map_origin, final=True)
-        summary = summary_document(executor.result, executor.onboard, wall_s=time.perf_counter() - wall0)
-        run_folder.write_json("summary.json", summary)
-        run_folder.close()
-    generate_report(Path(args.out))
-    print(f"dive {summary['status']}: {summary['message'] or summary['reason']}; run folder {args.out}")
-    if result.reason == "arming_not_confirmed":
-        raise UsageError("arming not confirmed: the vehicle was not armed")
-    return 0 if summary["status"] == "completed" else 1
+    excursions = watch.finish(result.end_s)
+    write_products(run_folder, onboard, executor.map_origin, final=True)
+    summary = summary_document(result, onboard, wall_s=time.perf_counter() - wall0,
+                               abort_message=run_folder.last_message("failsafe"),
+                               extra={"min_altitude_allowed_m": settings.min_altitude_m,
+                                      "altitude_excursions": [ex.to_dict() for ex in excursions]})
+    run_folder.write_json("summary.json", summary)
+    run_folder.close()
+    return summary

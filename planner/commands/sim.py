@@ -18,6 +18,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from planner.mission.output_folder import check_output_folder
 from planner.report.markdown import generate_report
 
 
@@ -33,7 +34,10 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("scenario", nargs="?", default="paper-targets",
                         help="built-in scenario name, a scenario folder or scenario.toml (default: paper-targets)")
-    parser.add_argument("--out", default="runs/sim", help="run folder (default: runs/sim)")
+    parser.add_argument("--out", default="runs/sim",
+                        help="run folder (default: runs/sim; an existing run needs --overwrite)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an existing run folder at --out (replaced whole once the new run is complete)")
     parser.add_argument("--fixed-tilt", action="store_true",
                         help="hold the tilt that centres the tracking zone (no pitch loop)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -41,12 +45,19 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the dry dive; exit 0 when completed, 1 when aborted (the run folder says why)."""
-    from planner.dryrun.dive import run_dry_dive
+    """Run the dry dive; exit 0 when completed, 1 when aborted (the run folder says why).
+
+    The scenario, its scene, area and settings are checked and the survey planned before
+    any folder is touched; the run is built in a staged folder and moved to ``--out``
+    when complete (:mod:`planner.mission.output_folder`).
+    """
+    from planner.dryrun.dive import dry_dive_into, prepare_dry_dive
     from planner.dryrun.scenario import load_scenario
 
     overrides = {"pitch_loop": False} if args.fixed_tilt else {}
-    scenario = load_scenario(args.scenario, **overrides)
+    prepared = prepare_dry_dive(load_scenario(args.scenario, **overrides))
+    out = Path(args.out)
+    check_output_folder(out, kind="run", overwrite=args.overwrite)
     bar = None if args.no_progress else tqdm(total=100, unit="%", desc="dive", file=sys.stderr, mininterval=1.0,
                                               bar_format="{l_bar}{bar}| {n:.0f}% [{elapsed}<{remaining}] {postfix}")
 
@@ -57,12 +68,12 @@ def run(args: argparse.Namespace) -> int:
             bar.update(0)  # redraws at most once per mininterval
 
     try:
-        dry = run_dry_dive(scenario, Path(args.out), progress=progress)
+        dry = dry_dive_into(prepared, out, overwrite=args.overwrite, progress=progress)
     finally:
         if bar is not None:
             bar.close()
-    report = generate_report(Path(args.out))
-    print(format_summary(dry.summary, Path(args.out)))
+    report = generate_report(out)
+    print(format_summary(dry.summary, out))
     print(f"report: {report}")
     return 0 if dry.summary.get("status") == "completed" else 1
 
@@ -73,12 +84,16 @@ def format_summary(summary: dict[str, Any], out: Path) -> str:
         value = summary.get(key)
         return "n/a" if value is None or (isinstance(value, float) and not math.isfinite(value)) else format(value, fmt)
 
+    excursions = len(summary.get("altitude_excursions") or ()) + len(summary.get("altitude_excursions_true") or ())
     lines = [
         f"dive {summary.get('status')}: {summary.get('reason')} (final state {summary.get('final_state')})",
         f"simulated {num('sim_duration_s', '.0f')} s in {num('wall_duration_s', '.0f')} s wall",
-        f"targets {summary.get('n_targets')} found, {summary.get('n_targets_with_height')} with a height",
-        f"min clearance {num('min_clearance_m', '.2f')} m, depth-limit violations "
-        f"{summary.get('depth_limit_violations')}, shadows in view {num('shadow_in_fov_ratio', '.3f')}",
+        f"targets {summary.get('n_targets')} on the map, {summary.get('n_targets_with_height')} with a height "
+        "(as in targets.csv, targets.geojson and the map)",
+        f"lowest true altitude {num('min_clearance_m', '.2f')} m (allowed {num('min_altitude_allowed_m', '.2f')} m), "
+        f"altitude warnings {excursions}, depth-limit violations {summary.get('depth_limit_violations')}",
+        f"shadows in view {num('shadow_in_fov_ratio', '.3f')} of {summary.get('shadow_frames_within_range')} "
+        "counted target-frames (report.md: Shadows in view)",
     ]
     if "height_mean_abs_error_m" in summary:
         lines.append(f"heights vs truth: mean |error| {100 * summary['height_mean_abs_error_m']:.2f} cm, "

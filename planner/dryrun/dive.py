@@ -21,7 +21,7 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -29,17 +29,20 @@ from perception.geodesy import LocalOrigin
 from planner.config import Settings, load_settings
 from planner.dryrun.anchored_faults import AnchoredFaults
 from planner.dryrun.scenario import Scenario
-from planner.dryrun.scoring import score_against_truth
-from planner.errors import ConfigError
+from planner.dryrun.scoring import score_against_truth, score_altitude
+from planner.errors import ConfigError, InfeasibleError
+from planner.mission.altitude_watch import AltitudeLimits, DiveWatch
 from planner.mission.executor import DiveResult, ExecutorConfig, MissionExecutor, TiltSource
 from planner.mission.onboard import OnboardConfig, OnboardPerception
+from planner.mission.output_folder import staged_folder
 from planner.mission.products import summary_document, write_products
-from planner.mission.run_folder import RunFolder
+from planner.mission.run_folder import RunFolder, mark_partial
 from planner.mission.safety import SafetyLimits
-from planner.survey.area import load_area
+from planner.survey.area import SurveyArea, load_area
 from planner.survey.lawnmower import plan_survey
 from planner.survey.mission_files import write_outputs
 from planner.survey.plan import SurveyPlan
+from planner.survey.plot import plot_plan
 from sim_harness.autopilot.autopilot import AutopilotConfig
 from sim_harness.clock import SimClock
 from sim_harness.peers import BlueOsServices
@@ -83,7 +86,7 @@ class CompanionDied(BaseException):
 
 
 def _executor_config(scenario: Scenario, settings: Settings) -> ExecutorConfig:
-    safety = SafetyLimits(min_clearance_m=settings.vehicle.min_clearance_m, depth_limit_m=settings.vehicle.max_depth_m)
+    safety = SafetyLimits(min_clearance_m=settings.min_altitude_m, depth_limit_m=settings.vehicle.max_depth_m)
     options: dict[str, Any] = {"topside": "required" if scenario.topside is not None else "absent",
                                "set_ekf_origin": True}  # the simulated EKF's zero is the scene's origin
     options.update(scenario.executor)
@@ -104,19 +107,27 @@ def make_tilt_controller(plan: SurveyPlan, settings: Settings, *, closed_loop: b
     return ShadowPitchLoop(plan, settings)
 
 
-def run_dry_dive(
-    scenario: Scenario,
-    out_dir: Path,
-    *,
-    progress: Callable[[float, float, str], None] | None = None,
-    write_frames: bool = False,
-) -> DryRun:
-    """Plan the scenario's survey, dry-run it against the software vehicle, write the run folder.
+@dataclass(frozen=True)
+class PreparedDive:
+    """A scenario with everything it refers to loaded and checked, and its survey planned:
+    what a dry run needs before it writes anything (a refusal leaves every folder alone)."""
 
-    ``progress(sim_s, planned_s, state)`` is called every control cycle.
+    scenario: Scenario
+    scene: Scene
+    origin: LocalOrigin
+    settings: Settings
+    area: SurveyArea
+    plan: SurveyPlan
+
+
+def prepare_dry_dive(scenario: Scenario) -> PreparedDive:
+    """Load the scenario's scene, settings and area, and plan its survey.
+
+    Raises
+    ------
+    ConfigError, AreaError, SceneError, InfeasibleError
+        Naming the file (and key) that is wrong; nothing has been written.
     """
-    del write_frames
-    wall0 = time.perf_counter()
     scene = load_scene(scenario.scene_path)
     if not (math.isfinite(scene.world.origin_lat_deg) and math.isfinite(scene.world.origin_lon_deg)):
         raise ConfigError("the scene must give an [origin] (lat_deg, lon_deg)", key="origin",
@@ -124,9 +135,36 @@ def run_dry_dive(
     origin = LocalOrigin(scene.world.origin_lat_deg, scene.world.origin_lon_deg)
     settings = load_settings(scenario.survey_path)
     area = load_area(scenario.area_path, origin=(origin.lat_deg, origin.lon_deg))
-    plan = plan_survey(area, settings)
+    try:
+        plan = plan_survey(area, settings)
+    except InfeasibleError as exc:
+        raise InfeasibleError(f"scenario {scenario.source or scenario.name}: cannot plan {scenario.area_path} with "
+                              f"{scenario.survey_path}: {exc.reason}") from exc
+    return PreparedDive(scenario, scene, origin, settings, area, plan)
+
+
+def run_dry_dive(
+    scenario: Scenario | PreparedDive,
+    out_dir: Path,
+    *,
+    progress: Callable[[float, float, str], None] | None = None,
+    write_frames: bool = False,
+) -> DryRun:
+    """Plan the scenario's survey, dry-run it against the software vehicle, write the run folder.
+
+    ``out_dir`` is written as it is (``shadowsurvey sim`` passes a staged folder,
+    :mod:`planner.mission.output_folder`). ``progress(sim_s, planned_s, state)`` is called
+    every control cycle; whatever it raises (a KeyboardInterrupt) ends the dive and is
+    raised here.
+    """
+    del write_frames
+    wall0 = time.perf_counter()
+    prepared = scenario if isinstance(scenario, PreparedDive) else prepare_dry_dive(scenario)
+    scenario, scene, origin = prepared.scenario, prepared.scene, prepared.origin
+    settings, area, plan = prepared.settings, prepared.area, prepared.plan
     run = RunFolder(out_dir)
     write_outputs(plan, area, run.path("plan"))
+    plot_plan(plan, area, run.path("plan/survey.png"))
     run.write_json("truth.json", truth_document(scene, origin))
 
     clock = SimClock()
@@ -145,7 +183,7 @@ def run_dry_dive(
     host, port = sim.address
     exec_config = _executor_config(scenario, settings)
     link_config = LinkConfig(f"udpout:{host}:{port}", max_depth_m=settings.vehicle.max_depth_m,
-                             min_clearance_m=settings.vehicle.min_clearance_m,
+                             min_clearance_m=settings.min_altitude_m,
                              tlog_path=str(run.path("dive.tlog")), link_timeout_s=scenario.link_timeout_s,
                              message_intervals_s=tuple(
                                  (name, MOUNT_STATUS_PERIOD_S if name == "GIMBAL_DEVICE_ATTITUDE_STATUS" else period)
@@ -155,11 +193,18 @@ def run_dry_dive(
     tilt = make_tilt_controller(plan, settings, closed_loop=scenario.pitch_loop)
     planned_s = sum(p.duration_s for p in plan.passes) + 60.0
     holder: dict[str, Any] = {}
+    limits = AltitudeLimits(tuple(p.altitude_m for p in plan.passes), settings.min_altitude_m)
+    altitude_watch = DiveWatch(limits, run.event)
 
     def cycle(executor: MissionExecutor) -> None:
+        altitude_watch.on_cycle(executor)
         now = clock.now_s()
         if progress is not None:
-            progress(now, planned_s, executor.result.state)
+            try:
+                progress(now, planned_s, executor.result.state)
+            except KeyboardInterrupt:  # the executor commands its safe action; raised again below
+                holder["interrupted"] = True
+                raise
         t0 = 0.0
         if isinstance(faults, AnchoredFaults):
             if "t0_s" not in faults.anchor:
@@ -193,6 +238,8 @@ def run_dry_dive(
                 executor.result.message = f"the companion's process was killed at {clock.now_s():.1f} s"
                 executor.result.end_s = clock.now_s()
                 holder["result"] = executor.result
+            except BaseException as exc:  # a Ctrl-C from the progress callback: raised again below
+                holder["error"] = exc
             finally:
                 client.close()
 
@@ -208,19 +255,48 @@ def run_dry_dive(
         sim.stop()
     if "result" not in holder:
         run.close()
+        if "error" in holder:
+            raise holder["error"]
         raise RuntimeError("the executor thread ended without a result (see the log above)")
+    if holder.get("interrupted"):
+        run.close()
+        raise KeyboardInterrupt
     result: DiveResult = holder["result"]
     executor = holder["executor"]
+    excursions = altitude_watch.finish(result.end_s)
     products = write_products(run, executor.onboard, executor.map_origin, final=True,
                               truth_points=tuple((t.north_m, t.east_m, t.height_m) for t in scene.world.targets))
     truth_extra = score_against_truth(run, sim, settings, result, products.targets,
                                       n_beams=renderer.config.n_beams, truth_targets=scene.world.targets,
                                       beam_azimuth_rad=renderer.config.beam_azimuth_rad, plan=plan)
+    truth_extra.update(score_altitude(run, sim, result, limits, altitude_watch.std_at))
     summary = summary_document(result, executor.onboard, wall_s=time.perf_counter() - wall0,
-                               extra={"scenario": scenario.name, **truth_extra})
+                               abort_message=run.last_message("failsafe"),
+                               extra={"scenario": scenario.name, "min_altitude_allowed_m": settings.min_altitude_m,
+                                      "altitude_excursions": [ex.to_dict() for ex in excursions], **truth_extra})
     run.write_json("summary.json", summary)
     run.close()
     return DryRun(Path(out_dir), plan, result, summary, sim)
+
+
+def dry_dive_into(
+    prepared: PreparedDive,
+    out: Path,
+    *,
+    overwrite: bool = False,
+    progress: Callable[[float, float, str], None] | None = None,
+) -> DryRun:
+    """:func:`run_dry_dive` into the run folder ``out``, never losing what is there.
+
+    The run is built in a staged folder beside ``out`` and moved into place when it is
+    complete (:func:`planner.mission.output_folder.staged_folder`): an existing folder
+    needs ``overwrite`` and stays byte for byte as it was if the dive crashes or is
+    interrupted; the stopped run is then kept beside it, its summary marked partial
+    (:func:`planner.mission.run_folder.mark_partial`).
+    """
+    with staged_folder(Path(out), kind="run", overwrite=overwrite, on_failure=mark_partial) as stage:
+        dry = run_dry_dive(prepared, stage, progress=progress)
+    return replace(dry, out_dir=Path(out))
 
 
 def truth_document(scene: Scene, origin: LocalOrigin) -> dict[str, Any]:

@@ -4,12 +4,14 @@ shadows in view."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from planner.config import Settings
 from planner.dryrun.shadow_view import shadow_visible_at_tilts, visible_tilts
+from planner.mission.altitude_watch import AltitudeLimits, AltitudeWatch, replay
 from planner.mission.executor_config import DiveResult
 from planner.mission.run_folder import RunFolder
 from planner.report.height_score import score_heights
@@ -198,6 +200,19 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
             f"{FOV_MIN_AHEAD_ALTITUDES:g} altitudes ahead that some tilt could show whole, counted up to the most "
             "one tilt could show where they conflict"),
     }
+
+
+def score_altitude(run: RunFolder, sim: VehicleSimulator, result: DiveResult, limits: AltitudeLimits,
+                   std_at: Callable[[float], float]) -> dict[str, Any]:
+    """The simulator's true altitude through the controller's altitude checks
+    (:mod:`planner.mission.altitude_watch`: below the pass by more than the filter's 3 sigma at
+    that moment, ``std_at(t_s)``, or below the clearance); each excursion is a warning in
+    ``events.jsonl`` (``source`` ``"truth"``) and an entry of ``altitude_excursions_true``."""
+    watch = AltitudeWatch(limits, source="truth")
+    samples = [(h.time_s, h.altitude_m, std_at(h.time_s)) for h in sim.truth_history() if h.armed]
+    for t_s, kind, message, fields in replay(watch, samples, result.states):
+        run.event(t_s, kind, message, **fields)
+    return {"altitude_excursions_true": [ex.to_dict() for ex in watch.excursions]}
 
 
 def _track_figures(run: RunFolder, sim: VehicleSimulator, settings: Settings) -> dict[str, Any]:

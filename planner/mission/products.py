@@ -18,6 +18,7 @@ from perception.mapping.products import (
     write_png_with_world_file,
     write_targets_geojson,
 )
+from perception.mapping.survey_map import SAME_TARGET_RADIUS_M, Drift
 from planner.mission.executor_config import DiveResult
 from planner.mission.onboard import OnboardPerception
 from planner.mission.run_folder import RunFolder
@@ -69,15 +70,60 @@ def write_products(
     return Products(targets, raster)
 
 
+#: What ``n_targets`` counts, in summary.json: the same targets targets.csv, targets.geojson,
+#: the map and the report show.
+TARGET_COUNT_DEFINITION = (
+    "targets on the map (targets.csv, targets.geojson, mosaic_heights.png, report.md): the height pipeline's "
+    f"tracks, a track whose centre lies within {SAME_TARGET_RADIUS_M:g} m of a track solved from more frames "
+    "folded into it as a fragment of the same target; n_tracks_raw counts the tracks before folding (a diagnostic "
+    "of the tracker)")
+
+
+def drift_document(drift: Drift | None) -> dict[str, Any] | None:
+    """``summary.json``'s ``navigation_drift``: the registration's correction and what it means."""
+    if drift is None:
+        return None
+    size = math.hypot(drift.north_m, drift.east_m)
+    return {
+        "correction_north_m": drift.north_m,
+        "correction_east_m": drift.east_m,
+        "correction_m": size,
+        "correction_std_m": drift.std_m,
+        "navigation_drift_north_m": -drift.north_m,
+        "navigation_drift_east_m": -drift.east_m,
+        "registrations_accepted": drift.accepted,
+        "registrations_refused": drift.refused,
+        "track_m": drift.travelled_m,
+        "plausible_drift_max_m": drift.plausible_m,
+        "meaning": (
+            "registration matched later sonar frames against the seabed mosaic already built and found them "
+            f"{size:.2f} m off: the vehicle's dead-reckoned navigation (DVL) is believed to have drifted by "
+            f"({-drift.north_m:+.2f}, {-drift.east_m:+.2f}) m north, east (1-sigma {drift.std_m:.2f} m per axis) "
+            "since it first mapped that seabed. The correction is added to the position of every later frame and "
+            "of the targets placed from them, so a second pass lines up with the first. It is relative: the map as "
+            "a whole keeps the drift of the first pass over each place. "
+            + ("No registration was accepted, so nothing was corrected." if drift.accepted == 0 else
+               f"It rests on {drift.accepted} accepted registrations ({drift.refused} refused) over "
+               f"{drift.travelled_m:.0f} m of track; the navigation prior allows up to {drift.plausible_m:.2f} m "
+               "after that track.")),
+    }
+
+
 def summary_document(result: DiveResult, onboard: OnboardPerception, *, wall_s: float,
-                     extra: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The fields of ``summary.json`` the controller itself knows (simulation adds truth)."""
-    targets = onboard.targets()
+                     abort_message: str | None = None, extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The fields of ``summary.json`` the controller itself knows (simulation adds truth).
+
+    ``n_targets`` counts the mapped targets, the same ones every other product shows
+    (:data:`TARGET_COUNT_DEFINITION`). ``abort_message`` (the failsafe event's text) goes
+    into ``reason_detail`` of an aborted dive.
+    """
+    mapped = onboard.mapped_targets()
     status = onboard.status()
     doc: dict[str, Any] = {
         "status": result.status,
         "reason": result.reason,
         "message": result.message,
+        "reason_detail": abort_message if result.status == "aborted" else None,
         "final_state": result.state,
         "states": [{"t_s": round(t, 2), "state": s} for t, s in result.states],
         "sim_duration_s": result.end_s - result.start_s,
@@ -92,11 +138,12 @@ def summary_document(result: DiveResult, onboard: OnboardPerception, *, wall_s: 
         "ekf_origin_offset_m": list(result.origin_offset_m),
         "frames_processed": status.frames_used,
         "frames_skipped": status.frames_skipped,
-        "n_targets": len(targets),
-        "n_targets_with_height": sum(1 for t in targets if t.height_m is not None),
+        "n_targets": len(mapped),
+        "n_targets_with_height": sum(1 for t in mapped if math.isfinite(t.height_m)),
+        "n_tracks_raw": len(onboard.targets()),
+        "target_count_definition": TARGET_COUNT_DEFINITION,
         "filter_counters": status.filter_counters,
-        "mosaic_drift_correction_m": [status.drift.north_m, status.drift.east_m]
-        if status.drift is not None else None,
+        "navigation_drift": drift_document(status.drift),
     }
     if extra:
         doc.update(extra)

@@ -16,7 +16,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import IO, Any
 
-from perception.mapping.products import atomic_write, atomic_write_text
+from perception.atomic_file import atomic_write, atomic_write_text
+
+#: ``summary.json``'s ``status`` of a run that stopped before it was complete.
+PARTIAL_STATUS = "partial"
 
 
 def _jsonable(value: Any) -> Any:
@@ -68,7 +71,8 @@ class RunFolder:
     Parameters
     ----------
     root : Path
-        Created if missing. Existing files of an earlier run are replaced.
+        Created if missing. The commands give it a fresh staged folder
+        (:mod:`planner.mission.output_folder`), so no earlier run is ever mixed in.
     """
 
     def __init__(self, root: Path):
@@ -76,6 +80,11 @@ class RunFolder:
         self.root.mkdir(parents=True, exist_ok=True)
         self._events: IO[str] = (self.root / "events.jsonl").open("w", encoding="utf-8")
         self._series: dict[str, CsvSeries] = {}
+        self._last: dict[str, str] = {}
+
+    def last_message(self, kind: str) -> str | None:
+        """The message of the newest event of ``kind`` written so far (None before any)."""
+        return self._last.get(kind)
 
     def path(self, name: str) -> Path:
         """Path of a file in the run folder (sub-folders created)."""
@@ -88,6 +97,7 @@ class RunFolder:
         record = {"t_s": round(float(time_s), 3), "kind": kind, "message": message, **_jsonable(fields)}
         self._events.write(json.dumps(record) + "\n")
         self._events.flush()
+        self._last[kind] = message
         return record
 
     def series(self, name: str, columns: Sequence[str]) -> CsvSeries:
@@ -118,3 +128,38 @@ class RunFolder:
         for s in self._series.values():
             s.close()
         self._events.close()
+
+
+def stop_reason(exc: BaseException) -> str:
+    """Why a run stopped, for its summary: ``"interrupted (Ctrl-C)"`` or the error's type and text."""
+    if isinstance(exc, KeyboardInterrupt):
+        return "interrupted (Ctrl-C)"
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def mark_partial(root: Path, exc: BaseException) -> Path:
+    """Mark the run folder ``root`` partial: its ``summary.json`` says ``"status": "partial"``
+    and why (``reason``); a summary already written is kept under ``"summary_before_stop"``.
+
+    Used by :func:`planner.mission.output_folder.staged_folder` when a run stops early (a
+    crash, Ctrl-C); the files already written stay as they were (each complete, see the
+    module docstring).
+    """
+    path = Path(root) / "summary.json"
+    before: Any = None
+    if path.is_file():
+        try:
+            before = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            before = None
+    doc = {
+        "status": PARTIAL_STATUS,
+        "reason": stop_reason(exc),
+        "partial": "the run stopped before it was complete: events.jsonl and the CSV series hold what was "
+                   "logged up to the stop; products (targets, mosaic, report) may be from an earlier moment "
+                   "of the run or missing",
+    }
+    if before is not None:
+        doc["summary_before_stop"] = before
+    return atomic_write_text(path, json.dumps(_jsonable(doc), indent=2) + "\n")

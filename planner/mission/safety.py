@@ -1,11 +1,20 @@
 """The safety envelope every command to the vehicle passes through.
 
 Two hard limits, never crossed whatever the plan, the pitch loop or a bad estimate asks:
-the minimum clearance above the seabed and the depth limit. A depth target is computed
+the lowest altitude above the seabed and the depth limit. A depth target is computed
 from the wanted altitude and the estimated seabed depth, then clamped: shallower than
-``seabed - clearance`` (with the estimate's uncertainty added) and not deeper than the
-depth limit. When no clamp can satisfy both (the seabed is shallower than the clearance
-allows) the command is refused with the reason.
+``seabed - min_clearance_m`` (with the estimate's uncertainty added) and not deeper than
+the depth limit. When no clamp can satisfy both (the seabed is shallower than the
+clearance allows) the command is refused with the reason.
+
+What the clearance means (one thing everywhere): survey.toml's ``vehicle.min_clearance_m``
+is kept between the vehicle and the top of the tallest expected target
+(``site.target_height_max_m``), because the seabed estimate is of the seabed, not of the
+targets standing on it, and the vehicle flies over them. So the limit given here,
+``SafetyLimits.min_clearance_m``, is the altitude above the SEABED that keeps it:
+:attr:`planner.config.Settings.min_altitude_m`, ``target_height_max_m +
+min_clearance_m``. The planner keeps the lower pass at or above the same altitude, and
+:mod:`planner.mission.altitude_watch` warns when the vehicle goes below it.
 """
 
 from __future__ import annotations
@@ -23,7 +32,9 @@ class SafetyLimits:
     Attributes
     ----------
     min_clearance_m : float
-        Smallest allowed altitude of the vehicle above the seabed, m.
+        Smallest allowed altitude of the vehicle above the SEABED, m: for a survey,
+        :attr:`planner.config.Settings.min_altitude_m` (the clearance over the tallest
+        target plus that target's height; see the module docstring).
     depth_limit_m : float
         Greatest allowed depth, m (positive down).
     uncertainty_sigmas : float

@@ -1,179 +1,43 @@
 """The dive report's figures, drawn from a :class:`~planner.report.data.RunData`.
 
 Each ``figure_*`` function writes one PNG (atomically) and returns its path, or ``None``
-when the run folder lacks the data the figure needs. matplotlib's Agg canvas is used
-directly (no pyplot global state). Plane plots are east to the right, north up, local
-metres about the plan's origin; time axes are seconds (minutes for long dives) since
-the start of the run.
+when the run folder lacks the data the figure needs. Plane plots are east to the right,
+north up, local metres about the plan's origin; time axes are seconds (minutes for long
+dives) since the start of the run. The shared drawing helpers are
+:mod:`planner.report.plotting`; the state timeline :mod:`planner.report.timeline`.
 """
 
 from __future__ import annotations
 
-import io
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
-from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
-from matplotlib.transforms import Bbox
 
-from perception.mapping.products import atomic_write
-from planner.report.data import Event, RunData, Series
+from planner.report.data import RunData, Series
 from planner.report.height_score import HeightScore
-
-#: Colours of the executor's states; other states take colours from ``_SPARE``.
-STATE_COLOURS = {
-    "CONNECT": "#b0b0b0", "PREFLIGHT": "#8c8c8c", "ARM": "#c2a26b", "DESCEND": "#2a9d8f",
-    "PASS_1": "#1f6fb4", "ALTITUDE_CHANGE": "#8e44ad", "PASS_2": "#d9541e", "FINISH": "#5a9e3a",
-    "ASCEND": "#5a9e3a", "SURFACE": "#5a9e3a", "COMPLETED": "#2e7d32", "ABORTED": "#c62828",
-}
-_SPARE = ("#17becf", "#bcbd22", "#e377c2", "#7f7f7f", "#9467bd", "#8c564b")
-PASS_COLOURS = ("#1f6fb4", "#d9541e", "#2a9d8f", "#8e44ad")
-ALERT_KINDS = ("failsafe", "abort", "error")
-TERMINAL_STATES = ("COMPLETED", "ABORTED")
-
-
-def state_colour(state: str, order: Sequence[str] = ()) -> str:
-    """The colour of a state (known states fixed, others by first appearance in ``order``)."""
-    if state in STATE_COLOURS:
-        return STATE_COLOURS[state]
-    unknown = [s for s in dict.fromkeys(order) if s not in STATE_COLOURS]
-    return _SPARE[unknown.index(state) % len(_SPARE)] if state in unknown else _SPARE[0]
-
-
-@dataclass(frozen=True)
-class StateSpan:
-    """The executor was in ``state`` from ``start_s`` to ``end_s`` (s since the start)."""
-
-    state: str
-    start_s: float
-    end_s: float
-
-
-def state_spans(events: Sequence[Event] | None, end_s: float) -> tuple[StateSpan, ...]:
-    """The state timeline from the ``state`` events; the last span ends at ``end_s``."""
-    changes = [(e.t_s, e.state) for e in events or () if e.kind == "state"]
-    changes.sort(key=lambda c: c[0])
-    spans = []
-    for i, (t, s) in enumerate(changes):
-        t_end = changes[i + 1][0] if i + 1 < len(changes) else max(end_s, t)
-        spans.append(StateSpan(s, t, t_end))
-    return tuple(spans)
-
-
-def state_at(spans: Sequence[StateSpan], t_s: np.ndarray) -> list[str]:
-    """The state at each time of ``t_s`` (shape (n,), s); ``""`` before the first change."""
-    starts = np.array([s.start_s for s in spans])
-    idx = np.searchsorted(starts, t_s, side="right") - 1 if len(spans) else np.full(len(t_s), -1)
-    return [spans[int(i)].state if i >= 0 else "" for i in idx]
-
-
-@dataclass(frozen=True)
-class TimeAxis:
-    """Seconds, or minutes for runs longer than 20 minutes (the run folder's ``t_s`` clock)."""
-
-    scale: float
-    label: str
-
-    @classmethod
-    def for_run(cls, end_s: float) -> TimeAxis:
-        """The axis for a run ending at ``end_s``."""
-        if end_s > 1200.0:
-            return cls(1.0 / 60.0, "run time (min)")
-        return cls(1.0, "run time (s)")
-
-
-def _figure(width_in: float, height_in: float) -> Figure:
-    fig = Figure(figsize=(width_in, height_in), layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def _save(fig: Figure, path: Path, dpi: int) -> Path:
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi)
-    return atomic_write(path, lambda h: h.write(buffer.getvalue()))
-
-
-def _alerts(run: RunData) -> list[Event]:
-    return [e for e in run.events or () if e.kind in ALERT_KINDS or (e.kind == "state" and e.state == "ABORTED")]
-
-
-def _draw_ribbon(ax: Any, spans: Sequence[StateSpan], axis: TimeAxis, end_s: float) -> None:
-    """The state timeline as a coloured bar, names written in where they fit, and a key above."""
-    order = [s.state for s in spans]
-    width_total = max(end_s, 1e-9) * axis.scale
-    for span in spans:
-        colour = state_colour(span.state, order)
-        x0, width = span.start_s * axis.scale, (span.end_s - span.start_s) * axis.scale
-        if span.state in TERMINAL_STATES:
-            ax.axvline(x0, color=colour, lw=3.0)
-            continue
-        ax.broken_barh([(x0, width)], (0, 1), facecolors=colour, edgecolor="white", lw=0.8)
-        # About 0.0075 of a 10-inch axis per character at this font size.
-        if width > 0.0075 * (len(span.state) + 2) * width_total:
-            ax.text(x0 + width / 2, 0.5, span.state, ha="center", va="center", fontsize=7.5, color="white",
-                    fontweight="bold", clip_on=True)
-    key = [Patch(color=state_colour(s, order), label=s) for s in dict.fromkeys(order)]
-    if key:
-        ax.legend(handles=key, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncols=min(len(key), 11), fontsize=7.5,
-                  frameon=False, handlelength=1.2, columnspacing=1.2)
-    ax.set_ylim(0, 1)
-    ax.set_yticks([])
-    ax.set_ylabel("state", rotation=0, ha="right", va="center", fontsize=8)
-    for side in ("top", "right", "left"):
-        ax.spines[side].set_visible(False)
-
-
-def _legend_above(ax: Any, handles: Sequence[Any], ncols: int = 4) -> None:
-    """A legend in a row above the panel, right-aligned, never over the data."""
-    if handles:
-        ax.legend(handles=list(handles), loc="lower right", bbox_to_anchor=(1.0, 1.0), ncols=min(ncols, len(handles)),
-                  fontsize=7.5, frameon=False, borderaxespad=0.1)
-
-
-def _mark_changes(axes: Sequence[Any], spans: Sequence[StateSpan], alerts: Sequence[Event], axis: TimeAxis) -> None:
-    """Faint lines at state changes and red lines at failsafes/aborts, on every panel."""
-    for ax in axes:
-        for span in spans:
-            ax.axvline(span.start_s * axis.scale, color="#999999", lw=0.6, ls=":", zorder=0)
-        for e in alerts:
-            ax.axvline(e.t_s * axis.scale, color="#c62828", lw=1.2, ls="--", zorder=1)
-    if axes:
-        for e in alerts:
-            text = e.state if e.kind == "state" else f"{e.kind}: {e.message}"
-            axes[0].text(e.t_s * axis.scale, 0.98, text[:40], rotation=90, ha="right", va="top", fontsize=7,
-                         color="#c62828", transform=axes[0].get_xaxis_transform(), zorder=7,
-                         bbox={"boxstyle": "square,pad=0.1", "fc": "white", "ec": "none", "alpha": 0.7})
-
-
-def _time_panels(run: RunData, n_panels: int, ratios: Sequence[float],
-                 height_in: float) -> tuple[Figure, list[Any], TimeAxis, tuple[StateSpan, ...]]:
-    """A figure of the state ribbon over ``n_panels`` time panels sharing the time axis."""
-    end_s = run.end_s()
-    axis = TimeAxis.for_run(end_s)
-    spans = state_spans(run.events, end_s)
-    fig = _figure(11.0, height_in)
-    axes = fig.subplots(n_panels + 1, 1, sharex=True, gridspec_kw={"height_ratios": [0.35, *ratios]})
-    _draw_ribbon(axes[0], spans, axis, end_s)
-    _mark_changes(list(axes[1:]), spans, _alerts(run), axis)
-    for ax in axes[1:]:
-        ax.grid(True, color="#e4e4e4", lw=0.6)
-    axes[-1].set_xlabel(axis.label)
-    start_s = run.start_s()
-    axes[-1].set_xlim(start_s * axis.scale, (end_s + 0.01 * max(end_s - start_s, 1.0)) * axis.scale)
-    return fig, list(axes), axis, spans
-
-
-def _alert_legend(run: RunData) -> list[Line2D]:
-    return [Line2D([], [], color="#c62828", ls="--", lw=1.2, label="failsafe / abort")] if _alerts(run) else []
+from planner.report.plotting import (
+    TimeAxis,
+    alert_legend,
+    legend_above,
+    new_figure,
+    place_labels,
+    robust_limits,
+    save_png,
+    time_panels,
+    truth_label,
+)
+from planner.report.timeline import (
+    PASS_COLOURS,
+    alerts,
+    state_at,
+    state_colour,
+    state_spans,
+)
 
 
 def figure_track(run: RunData, path: Path, *, dpi: int = 110) -> Path | None:
@@ -181,7 +45,7 @@ def figure_track(run: RunData, path: Path, *, dpi: int = 110) -> Path | None:
     have_nav = run.nav is not None and run.nav.has("north_m") and run.nav.has("east_m")
     if not (have_nav or run.plan or run.truth_track is not None):
         return None
-    fig = _figure(10.0, 8.0)
+    fig = new_figure(10.0, 8.0)
     ax = fig.add_subplot(1, 1, 1)
     handles: list[Any] = []
     for k, p in enumerate(run.plan or ()):
@@ -225,7 +89,7 @@ def figure_track(run: RunData, path: Path, *, dpi: int = 110) -> Path | None:
                                   label=f"flown: {s or 'before first state'}"))
         if len(pts):
             ax.plot(*pts[0], marker="*", ms=15, color="#2a9d3a", mec="black", zorder=7, ls="")
-            aborted = next((e for e in _alerts(run) if e.kind == "state"), None)
+            aborted = next((e for e in alerts(run) if e.kind == "state"), None)
             end_marker: dict[str, Any] = ({"marker": "X", "ms": 13, "color": "#c62828"} if aborted
                                           else {"marker": "s", "ms": 9, "color": "black"})
             ax.plot(*pts[-1], mec="white", zorder=7, ls="", **end_marker)
@@ -267,51 +131,7 @@ def figure_track(run: RunData, path: Path, *, dpi: int = 110) -> Path | None:
     ax.set_title("Track against plan", fontsize=11)
     fig.legend(handles=handles, loc="outside right upper", fontsize=8, frameon=False)
     place_labels(ax, labels)
-    return _save(fig, path, dpi)
-
-
-def truth_label(target_id: str) -> str:
-    """How a true target is named in figures: ``T<id>`` for numeric ids, else the id itself."""
-    return f"T{target_id}" if target_id[:1].isdigit() or not target_id else target_id
-
-
-#: Label offsets tried in turn (points from the anchor, horizontal and vertical alignment).
-_LABEL_OFFSETS = ((6, 4, "left", "bottom"), (6, -4, "left", "top"), (-6, 4, "right", "bottom"),
-                  (-6, -4, "right", "top"), (0, 10, "center", "bottom"), (0, -10, "center", "top"),
-                  (10, 16, "left", "bottom"), (10, -16, "left", "top"), (-10, 16, "right", "bottom"),
-                  (-10, -16, "right", "top"))
-
-
-def place_labels(ax: Any, labels: Sequence[tuple[float, float, str, dict[str, Any]]]) -> None:
-    """Annotate points ``(x, y, text, style)`` (data coordinates), each label where it covers the least
-    of the labels and points placed before it (first free offset of :data:`_LABEL_OFFSETS`)."""
-    if not labels:
-        return
-    fig = ax.get_figure()
-    fig.canvas.draw()  # fixes limits, aspect and layout, so the boxes below are where they will be drawn
-    renderer = fig.canvas.get_renderer()
-    occupied = [Bbox.from_bounds(px - 5, py - 5, 10, 10)
-                for px, py in ax.transData.transform(np.array([[x, y] for x, y, _, _ in labels]))]
-    for x, y, text, style in labels:
-        best: tuple[float, Any, Any] | None = None
-        for dx, dy, ha, va in _LABEL_OFFSETS:
-            ann = ax.annotate(text, (x, y), xytext=(dx, dy), textcoords="offset points", ha=ha, va=va, **style)
-            box = ann.get_window_extent(renderer)
-            cover = 0.0
-            for other in occupied:
-                inter = Bbox.intersection(box, other)
-                if inter is not None:
-                    cover += inter.width * inter.height
-            if best is None or cover < best[0]:
-                if best is not None:
-                    best[1].remove()
-                best = (cover, ann, box)
-            else:
-                ann.remove()
-            if cover == 0.0:
-                break
-        if best is not None:
-            occupied.append(best[2])
+    return save_png(fig, path, dpi)
 
 
 def figure_altitude(run: RunData, path: Path, *, dpi: int = 110) -> Path | None:
@@ -319,7 +139,7 @@ def figure_altitude(run: RunData, path: Path, *, dpi: int = 110) -> Path | None:
     nav, flt, tilt, tt = run.nav, run.filter, run.tilt, run.truth_track
     if not any(s is not None and s.n_rows for s in (nav, flt, tt)):
         return None
-    fig, axes, axis, _ = _time_panels(run, 3, (2.2, 1.3, 1.3), 9.5)
+    fig, axes, axis, _ = time_panels(run, 3, (2.2, 1.3, 1.3), 9.5)
     ax_alt, ax_err, ax_depth = axes[1], axes[2], axes[3]
     handles: list[Any] = []
 
@@ -351,7 +171,7 @@ def figure_altitude(run: RunData, path: Path, *, dpi: int = 110) -> Path | None:
                                           color="#c62828", transform=ax_alt.get_xaxis_transform(), clip_on=False,
                                           label=f"reading rejected ({int(np.nanmax(rej))})", zorder=6))
     ax_alt.set_ylabel("altitude above\nseabed (m)")
-    _legend_above(ax_alt, [h for h in handles if h is not None] + _alert_legend(run))
+    legend_above(ax_alt, [h for h in handles if h is not None] + alert_legend(run))
     _altitude_error_panel(ax_err, run, axis)
     depth_handles = [
         line(ax_depth, nav, "depth_m", "telemetry depth", color="#2a9d8f", lw=1.2),
@@ -361,18 +181,9 @@ def figure_altitude(run: RunData, path: Path, *, dpi: int = 110) -> Path | None:
     ]
     ax_depth.invert_yaxis()
     ax_depth.set_ylabel("depth (m, down)")
-    _legend_above(ax_depth, [h for h in depth_handles if h is not None])
+    legend_above(ax_depth, [h for h in depth_handles if h is not None])
     fig.suptitle("Altitude, altitude filter and depth", fontsize=11)
-    return _save(fig, path, dpi)
-
-
-def _robust_limits(values: Sequence[np.ndarray], pad: float = 0.15) -> tuple[float, float] | None:
-    finite = np.concatenate([v[np.isfinite(v)] for v in values]) if values else np.array([])
-    if not len(finite):
-        return None
-    lo, hi = np.percentile(finite, [1.0, 99.0])
-    span = max(hi - lo, 1.0)
-    return float(lo - pad * span), float(hi + pad * span)
+    return save_png(fig, path, dpi)
 
 
 def _altitude_error_panel(ax: Any, run: RunData, axis: TimeAxis) -> None:
@@ -406,11 +217,11 @@ def _altitude_error_panel(ax: Any, run: RunData, axis: TimeAxis) -> None:
         handles.append(h)
         shown.append(100 * (est - true_alt))
     ax.axhline(0.0, color="#555555", lw=0.8)
-    limits = _robust_limits(shown)
+    limits = robust_limits(shown)
     if limits is not None:
         ax.set_ylim(*limits)
     ax.set_ylabel("altitude error (cm)")
-    _legend_above(ax, handles)
+    legend_above(ax, handles)
 
 
 def figure_tilt(run: RunData, path: Path, *, dpi: int = 110) -> Path | None:
@@ -420,7 +231,7 @@ def figure_tilt(run: RunData, path: Path, *, dpi: int = 110) -> Path | None:
     if (tilt is None or not tilt.n_rows) and shadows is None:
         return None
     panels = [1.8, 1.5, 0.7] + ([1.3] if shadows is not None else [])
-    fig, axes, axis, _ = _time_panels(run, len(panels), panels, 2.4 + 2.0 * len(panels))
+    fig, axes, axis, _ = time_panels(run, len(panels), panels, 2.4 + 2.0 * len(panels))
     ax_ang, ax_margin, ax_n = axes[1], axes[2], axes[3]
     angle_handles: list[Any] = []
     margin_handles: list[Any] = []
@@ -455,16 +266,16 @@ def figure_tilt(run: RunData, path: Path, *, dpi: int = 110) -> Path | None:
         if tilt.has("n_tracked"):
             ax_n.plot(t, tilt.col("n_tracked"), color="#8e44ad", lw=1.1, drawstyle="steps-post")
     ax_ang.set_ylabel("tilt (deg,\ndown +)")
-    _legend_above(ax_ang, angle_handles + _alert_legend(run))
+    legend_above(ax_ang, angle_handles + alert_legend(run))
     ax_margin.axhline(0.0, color="#c62828", lw=1.0)
     ax_margin.set_ylabel("shadow margin to\nFOV edge (deg)")
-    _legend_above(ax_margin, margin_handles)
+    legend_above(ax_margin, margin_handles)
     ax_n.set_ylabel("targets\ntracked")
     ax_n.yaxis.get_major_locator().set_params(integer=True)
     if shadows is not None:
         _shadow_raster(axes[4], shadows, axis)
     fig.suptitle("Sonar tilt and shadow margins", fontsize=11)
-    return _save(fig, path, dpi)
+    return save_png(fig, path, dpi)
 
 
 def _shadow_raster(ax: Any, shadows: Series, axis: TimeAxis) -> None:
@@ -491,14 +302,14 @@ def _shadow_raster(ax: Any, shadows: Series, axis: TimeAxis) -> None:
     ax.set_ylabel("target\n(simulator)")
     ax.set_title(f"simulator: whole shadow in the vertical FOV, {100 * ratio:.1f} % of {int(counted.sum())} "
                  "counted pairs", fontsize=8, loc="left")
-    _legend_above(ax, [h for h in ax.get_legend_handles_labels()[0]])
+    legend_above(ax, [h for h in ax.get_legend_handles_labels()[0]])
 
 
 def figure_heights(run: RunData, score: HeightScore, path: Path, *, dpi: int = 110) -> Path | None:
     """Estimated against true heights (±2σ bars, 1:1 line) and the error per target."""
     if not score.errors or run.targets is None or run.truth is None:
         return None
-    fig = _figure(11.0, 5.2)
+    fig = new_figure(11.0, 5.2)
     ax, ax_err = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.0, 1.3]})
     true_cm = np.array([e.true_height_m for e in score.errors]) * 100
     est_cm = np.array([e.height_m for e in score.errors]) * 100
@@ -550,4 +361,4 @@ def figure_heights(run: RunData, score: HeightScore, path: Path, *, dpi: int = 1
                   fontsize=7.5, loc="best")
     fig.suptitle(f"Target heights against simulator truth ({len(score.errors)} matched within "
                  f"{score.radius_m:g} m)", fontsize=11)
-    return _save(fig, path, dpi)
+    return save_png(fig, path, dpi)

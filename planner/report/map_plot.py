@@ -14,8 +14,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib import colors, patheffects  # noqa: E402
 
+from perception.atomic_file import atomic_write  # noqa: E402
 from perception.mapping.heights_layer import MappedTarget  # noqa: E402
-from perception.mapping.products import MapRaster, atomic_write  # noqa: E402
+from perception.mapping.products import MapRaster  # noqa: E402
 
 
 def render_map_png(

@@ -19,20 +19,14 @@ from typing import Any
 
 import numpy as np
 
-from perception.mapping.products import atomic_write_text
-from planner.report.data import Event, RunData, RunFolderError, load_run
-from planner.report.figures import (
-    ALERT_KINDS,
-    TERMINAL_STATES,
-    StateSpan,
-    figure_altitude,
-    figure_heights,
-    figure_tilt,
-    figure_track,
-    state_at,
-    state_spans,
-)
+from perception.atomic_file import atomic_write_text
+from planner.report.data import RUN_FILES, Event, RunData, RunFolderError, load_run
+from planner.report.figures import figure_altitude, figure_heights, figure_tilt, figure_track
 from planner.report.height_score import HeightScore, Matching, match_targets, score_heights
+from planner.report.key_figures import key_figures, nan_stat
+from planner.report.md import cell, fmt, short, table
+from planner.report.shadows import margin_lines, shadows_section
+from planner.report.timeline import ALERT_KINDS, TERMINAL_STATES, StateSpan, state_at, state_spans
 
 __all__ = ["FIGURE_DIR", "REPORT_NAME", "Matching", "HeightScore", "RunFolderError", "generate_report",
            "load_run", "match_targets", "render_markdown", "score_heights"]
@@ -41,58 +35,8 @@ REPORT_NAME = "report.md"
 FIGURE_DIR = "report"
 #: Default largest distance between an estimated and a true target to count as one, m.
 DEFAULT_MATCH_RADIUS_M = 1.0
-#: Longest event message shown in the events table, characters.
-MESSAGE_CHARS = 240
 #: Event kinds listed one by one in the events table.
 LISTED_KINDS = ("warning", *ALERT_KINDS)
-
-#: Summary fields shown in the key-figures table: (field, label, unit formatter).
-_SUMMARY_FIELDS: tuple[tuple[str, str, str], ...] = (
-    ("sim_duration_s", "dive duration (simulated clock)", "duration"),
-    ("wall_duration_s", "wall-clock duration", "duration"),
-    ("min_clearance_m", "smallest clearance above the seabed", "m"),
-    ("depth_limit_violations", "depth-limit violations", "count"),
-    ("shadow_in_fov_ratio", "target shadows inside the vertical FOV", "percent"),
-    ("n_targets", "targets found", "count"),
-)
-
-
-def _fmt(value: Any, unit: str = "") -> str:
-    if value is None or (isinstance(value, float) and not math.isfinite(value)):
-        return "–"
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        return _cell(str(value))
-    if isinstance(value, int):
-        return str(value)
-    if unit == "duration":
-        return f"{value:.1f} s ({value / 60:.1f} min)"
-    if unit == "percent":
-        return f"{100 * value:.1f} %"
-    if unit == "count":
-        return f"{value:g}"
-    if unit == "cm":
-        return f"{100 * value:.2f} cm"
-    if unit == "":
-        return f"{value:.1f}" if abs(value) >= 100 else f"{value:.4g}"
-    return f"{value:.2f} {unit}"
-
-
-def _cell(text: str) -> str:
-    """Text made safe for a Markdown table cell."""
-    return " ".join(str(text).split()).replace("|", "\\|")
-
-
-def _short(text: str, limit: int = MESSAGE_CHARS) -> str:
-    """``text`` cut to ``limit`` characters (a traceback in an event, say), marked with an ellipsis."""
-    text = " ".join(str(text).split())
-    return text if len(text) <= limit else text[: limit - 1] + "…"
-
-
-def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return out + [""]
-
 
 def _status(run: RunData) -> tuple[str, str]:
     """(status, reason): from summary.json, else from the last state event."""
@@ -111,66 +55,81 @@ def _status(run: RunData) -> tuple[str, str]:
     return "UNKNOWN", f"no summary.json: the run is still going or stopped without finishing{where}"
 
 
-def _track_length_m(run: RunData) -> float:
-    if run.nav is None or not run.nav.has("north_m"):
-        return math.nan
-    ne = np.column_stack([run.nav.col("north_m"), run.nav.col("east_m")])
-    ne = ne[np.isfinite(ne).all(axis=1)]
-    return float(np.hypot(*np.diff(ne, axis=0).T).sum()) if len(ne) > 1 else 0.0
-
-
-def _nan_stat(fn: Any, values: np.ndarray) -> float:
-    finite = values[np.isfinite(values)]
-    return float(fn(finite)) if len(finite) else math.nan
-
-
 def _header(run: RunData, score: HeightScore | None) -> list[str]:
     status, reason = _status(run)
     icon = {"COMPLETED": "✅", "ABORTED": "⛔"}.get(status, "⚠️")
-    lines = [f"# Dive report: {run.root.name}", "", f"**Status: {icon} {status}**" + (f" — {_cell(reason)}" if reason
+    detail = (run.summary or {}).get("reason_detail")
+    if detail:
+        reason += f": {detail}"
+    lines = [f"# Dive report: {run.root.name}", "", f"**Status: {icon} {status}**" + (f" — {cell(reason)}" if reason
                                                                                     else ""), ""]
-    summary = dict(run.summary or {})
-    rows = [[label, _fmt(summary.get(key), unit)] for key, label, unit in _SUMMARY_FIELDS if key in summary]
-    nav = run.nav
-    if nav is not None and nav.n_rows:
-        rows.append(["distance flown (telemetry)", _fmt(_track_length_m(run), "m")])
-        rows.append(["deepest (telemetry)", _fmt(_nan_stat(np.max, nav.col("depth_m")), "m")])
-        rows.append(["lowest altitude (telemetry)", _fmt(_nan_stat(np.min, nav.col("altitude_m")), "m")])
-    if run.targets is not None:
-        solved = sum(math.isfinite(t.height_m) for t in run.targets)
-        rows.append(["targets in targets.csv", f"{len(run.targets)} ({solved} with a height)"])
-    if score is not None:
-        rows.append(["height error against truth", f"mean \\|e\\| {_fmt(score.mean_abs_error_m, 'cm')}, max "
-                     f"{_fmt(score.max_abs_error_m, 'cm')} ({len(score.errors)} of {len(run.truth or ())} "
-                     "true targets scored)"])
-    events = run.events or ()
-    rows.append(["warnings / failsafes", f"{sum(e.kind == 'warning' for e in events)} / "
-                 f"{sum(e.kind == 'failsafe' for e in events)}"])
-    known = {k for k, _, _ in _SUMMARY_FIELDS} | {"status", "reason"}
-    rows += [[_cell(k), _fmt(v)] for k, v in summary.items() if k not in known and not isinstance(v, dict | list)]
-    lines += _table(["key figure", "value"], rows)
+    if status == "PARTIAL":
+        lines += [f"_{cell((run.summary or {}).get('partial', 'the run stopped before it was complete'))}._", ""]
+    lines += key_figures(run, score)
     kind = "simulation (truth available)" if run.simulated else "no simulator truth"
     lines.append(f"Run folder `{run.root}`; {kind}.")
     return lines + [""]
 
 
+def _altitude_warnings(run: RunData) -> list[str]:
+    s = run.summary or {}
+    if "altitude_excursions" not in s:
+        return []
+    excursions = [e for e in (*(s.get("altitude_excursions") or ()), *(s.get("altitude_excursions_true") or ()))
+                  if isinstance(e, dict)]
+    lines = ["### Altitude warnings", ""]
+    if not excursions:
+        return lines + ["None: the altitude never went below a pass altitude by more than 3 sigma of the filter, nor "
+                        "below the lowest allowed altitude.", ""]
+    rows = [[cell("simulator truth" if e.get("source") == "truth" else "filter estimate"),
+             cell("below the pass altitude" if e.get("check") == "pass" else "below the lowest allowed altitude"),
+             cell(e.get("state", "")), f"{float(e.get('limit_m') or 0):.3f} m",
+             f"{float(e.get('lowest_m') or 0):.3f} m",
+             fmt(e.get("lowest_s"), "s"), fmt(e.get("start_s"), "s"), fmt(e.get("end_s"), "s")]
+            for e in sorted(excursions, key=lambda e: float(e.get("start_s") or 0.0))]
+    lines += table(["altitude", "check", "state", "limit", "lowest", "at", "from", "to"], rows)
+    return lines + ["Below the pass altitude: in DESCEND, a pass or ALTITUDE_CHANGE, lower than the pass altitude "
+                    "(the lower of two while changing) by more than 3 sigma of the altitude filter's estimate at "
+                    "that moment; the limit shown is that bound. Below the lowest allowed altitude: lower than "
+                    "min_clearance_m above the tallest expected target. Each is a warning in events.jsonl.", ""]
+
+
+def _drift_section(run: RunData) -> list[str]:
+    drift = (run.summary or {}).get("navigation_drift")
+    if not isinstance(drift, dict):
+        return []
+    lines = ["## Navigation drift", ""]
+    rows = [["correction (north, east)", f"{fmt(drift.get('correction_north_m'), 'm')}, "
+             f"{fmt(drift.get('correction_east_m'), 'm')}"],
+            ["size of the correction", fmt(drift.get("correction_m"), "m")],
+            ["its 1-sigma per axis", fmt(drift.get("correction_std_m"), "m")],
+            ["registrations accepted / refused", f"{drift.get('registrations_accepted', '–')} / "
+             f"{drift.get('registrations_refused', '–')}"],
+            ["track it rests on", fmt(drift.get("track_m"), "m")],
+            ["largest drift the prior allows there", fmt(drift.get("plausible_drift_max_m"), "m")]]
+    lines += table(["navigation drift", "value"], rows)
+    if drift.get("meaning"):
+        lines += [cell(drift["meaning"]), ""]
+    return lines
+
+
 def _files_section(run: RunData) -> list[str]:
-    def series_cell(s: Any) -> str:
+    def seriescell(s: Any) -> str:
         return "missing" if s is None else f"{s.n_rows} rows"
 
     rows = [
         ["events.jsonl", "missing" if run.events is None else f"{len(run.events)} events"],
-        ["nav.csv", series_cell(run.nav)], ["filter.csv", series_cell(run.filter)],
-        ["tilt.csv", series_cell(run.tilt)],
+        ["nav.csv", seriescell(run.nav)], ["filter.csv", seriescell(run.filter)],
+        ["tilt.csv", seriescell(run.tilt)],
         ["plan/plan.json", "missing" if run.plan is None else f"{len(run.plan)} passes"],
         ["targets.csv", "missing" if run.targets is None else f"{len(run.targets)} targets"],
         ["summary.json", "missing" if run.summary is None else "present"],
         ["truth.json", "missing (expected on a real vehicle)" if run.truth is None else f"{len(run.truth)} targets"],
-        ["truth_track.csv", series_cell(run.truth_track)], ["shadows.csv", series_cell(run.shadows)],
+        ["truth_track.csv", seriescell(run.truth_track)], ["shadows.csv", seriescell(run.shadows)],
     ]
-    lines = ["## Data files", "", *_table(["file", "content"], rows)]
+    lines = ["## Data files", "", *table(["file", "content"], rows)]
     if run.notes:
-        lines += [f"- {_cell(n)}" for n in run.notes] + [""]
+        lines += [f"- {cell(n)}" for n in run.notes] + [""]
     return lines
 
 
@@ -184,9 +143,9 @@ def _track_section(run: RunData, fig: Path | None) -> list[str]:
     lines = ["## Track against plan", ""]
     lines += _figure_link(fig, run, "track against plan", "No track or plan data (nav.csv and plan/plan.json missing).")
     if run.plan:
-        rows = [[_cell(p.name), _fmt(p.altitude_m, "m"), f"{math.degrees(p.tilt_rad):.1f} deg",
+        rows = [[cell(p.name), fmt(p.altitude_m, "m"), f"{math.degrees(p.tilt_rad):.1f} deg",
                  f"{len(p.path_ne_m)}", f"{len(p.lanes_ne_m)}"] for p in run.plan]
-        lines += _table(["planned pass", "altitude", "tilt", "waypoints", "lane runs"], rows)
+        lines += table(["planned pass", "altitude", "tilt", "waypoints", "lane runs"], rows)
     else:
         lines += ["_No plan/plan.json: the track is drawn without the planned lanes._", ""]
     return lines
@@ -196,6 +155,7 @@ def _altitude_section(run: RunData, fig: Path | None) -> list[str]:
     lines = ["## Altitude and the altitude filter", ""]
     lines += _figure_link(fig, run, "altitude and filter",
                           "No altitude data (nav.csv and filter.csv missing or empty).")
+    lines += _altitude_warnings(run)
     flt = run.filter
     if flt is not None and flt.n_rows and run.events:
         spans = [s for s in state_spans(run.events, run.end_s()) if s.state not in TERMINAL_STATES]
@@ -209,9 +169,9 @@ def _altitude_section(run: RunData, fig: Path | None) -> list[str]:
             std = flt.col("altitude_std_m")[sel]
             target = (tilt.col("altitude_target_m")[np.array([x == s for x in tilt_states], dtype=bool)]
                       if tilt is not None else np.array([]))
-            rows.append([s, _fmt(_nan_stat(np.mean, est), "m"), _fmt(_nan_stat(np.min, est), "m"),
-                         _fmt(_nan_stat(np.median, target), "m"), _fmt(_nan_stat(np.mean, std), "m")])
-        lines += _table(["state", "mean altitude (filter)", "lowest altitude (filter)", "altitude target (median)",
+            rows.append([s, fmt(nan_stat(np.mean, est), "m"), fmt(nan_stat(np.min, est), "m"),
+                         fmt(nan_stat(np.median, target), "m"), fmt(nan_stat(np.mean, std), "m")])
+        lines += table(["state", "mean altitude (filter)", "lowest altitude (filter)", "altitude target (median)",
                          "mean filter σ"], rows)
     if flt is not None and flt.has("rejected_total"):
         lines += [f"Altimeter readings rejected by the filter: {int(np.nanmax(flt.col('rejected_total')))}.", ""]
@@ -222,27 +182,11 @@ def _tilt_section(run: RunData, fig: Path | None) -> list[str]:
     lines = ["## Tilt and shadow margins", ""]
     lines += _figure_link(fig, run, "tilt and shadow margins", "No tilt data (tilt.csv missing or empty).")
     tilt = run.tilt
-    if tilt is not None and tilt.has("min_margin_deg"):
-        t, m = tilt.col("t_s"), tilt.col("min_margin_deg")
-        dt = np.diff(t, append=t[-1])
-        neg = np.isfinite(m) & (m < 0)
-        total = float(np.nansum(dt[np.isfinite(m)]))
-        lines += [f"Smallest shadow margin {_fmt(_nan_stat(np.min, m), 'deg')}; a shadow was outside the field of "
-                  f"view for {float(dt[neg].sum()):.1f} s of {total:.1f} s with a tracked target.", ""]
+    lines += margin_lines(run)
     if tilt is not None and tilt.has("tilt_cmd_deg") and tilt.has("tilt_meas_deg"):
         err = tilt.col("tilt_meas_deg") - tilt.col("tilt_cmd_deg")
-        lines += [f"Tilt mount: measured minus commanded, median {_fmt(_nan_stat(np.median, err), 'deg')}, "
-                  f"largest {_fmt(_nan_stat(lambda a: np.max(np.abs(a)), err), 'deg')}.", ""]
-    sh = run.shadows
-    if sh is not None and sh.n_rows:
-        near = sh.col("within_range") > 0.5 if sh.has("within_range") else np.ones(sh.n_rows, dtype=bool)
-        settled = "settled" in sh.numbers
-        counted = near & (sh.col("settled") > 0.5) if settled else near
-        inside = sh.col("in_fov") > 0.5
-        if counted.any():
-            what = "settled frame-target pairs in range" if settled else "frame-target pairs in range"
-            lines += [f"Simulator (shadows.csv): whole shadow inside the vertical FOV in "
-                      f"{100 * float(inside[counted].mean()):.1f} % of {int(counted.sum())} {what}.", ""]
+        lines += [f"Tilt mount: measured minus commanded, median {fmt(nan_stat(np.median, err), 'deg')}, "
+                  f"largest {fmt(nan_stat(lambda a: np.max(np.abs(a)), err), 'deg')}.", ""]
     return lines
 
 
@@ -250,10 +194,10 @@ def _heights_section(run: RunData, score: HeightScore | None, fig: Path | None) 
     lines = ["## Target heights", ""]
     if run.targets is None:
         return lines + ["_No targets.csv: no heights were estimated (yet)._", ""]
-    rows = [[_cell(t.target_id), f"{t.north_m:.2f}", f"{t.east_m:.2f}",
+    rows = [[cell(t.target_id), f"{t.north_m:.2f}", f"{t.east_m:.2f}",
              f"{100 * t.height_m:.2f} ± {100 * t.height_std_m:.2f}" if math.isfinite(t.height_m) else "–",
-             f"{t.frames_used}", _cell(t.note)] for t in run.targets]
-    lines += _table(["target", "north (m)", "east (m)", "height ± σ (cm)", "frames", "note"], rows)
+             f"{t.frames_used}", cell(t.note)] for t in run.targets]
+    lines += table(["target", "north (m)", "east (m)", "height ± σ (cm)", "frames", "note"], rows)
     lines += ["### Heights against truth", ""]
     if score is None or run.truth is None:
         return lines + ["_No truth.json: not a simulation run, heights cannot be scored._", ""]
@@ -262,30 +206,30 @@ def _heights_section(run: RunData, score: HeightScore | None, fig: Path | None) 
     by_truth = {e.truth: e for e in score.errors}
     no_height = {m.truth: m for m in score.no_height}
     for i, t in enumerate(run.truth):
-        shape = _cell(t.note)
+        shape = cell(t.note)
         if i in by_truth:
             e = by_truth[i]
             est = run.targets[e.estimated]
-            rows.append([_cell(t.target_id), shape, f"{100 * t.height_m:.2f}", _cell(est.target_id),
+            rows.append([cell(t.target_id), shape, f"{100 * t.height_m:.2f}", cell(est.target_id),
                          f"{100 * e.height_m:.2f} ± {100 * e.height_std_m:.2f}", f"{100 * e.error_m:+.2f}",
                          f"{e.z:+.1f}" if math.isfinite(e.z) else "–", f"{e.distance_m:.2f}"])
         elif i in no_height:
             est = run.targets[no_height[i].estimated]
-            rows.append([_cell(t.target_id), shape, f"{100 * t.height_m:.2f}", _cell(est.target_id),
-                         f"no height ({_cell(est.note) or 'no reason given'})", "–", "–",
+            rows.append([cell(t.target_id), shape, f"{100 * t.height_m:.2f}", cell(est.target_id),
+                         f"no height ({cell(est.note) or 'no reason given'})", "–", "–",
                          f"{no_height[i].distance_m:.2f}"])
         else:
-            rows.append([_cell(t.target_id), shape, f"{100 * t.height_m:.2f}", "not found", "–", "–", "–", "–"])
-    lines += _table(["true target", "shape", "true height (cm)", "estimate", "estimated ± σ (cm)", "error (cm)",
+            rows.append([cell(t.target_id), shape, f"{100 * t.height_m:.2f}", "not found", "–", "–", "–", "–"])
+    lines += table(["true target", "shape", "true height (cm)", "estimate", "estimated ± σ (cm)", "error (cm)",
                      "error / σ", "position error (m)"], rows)
     lines.append(f"Matched one to one by seabed position within {score.radius_m:g} m. Mean \\|error\\| "
-                 f"{_fmt(score.mean_abs_error_m, 'cm')}, max {_fmt(score.max_abs_error_m, 'cm')}, "
-                 f"RMS {_fmt(score.rms_error_m, 'cm')}, bias {_fmt(score.mean_error_m, 'cm')}.")
+                 f"{fmt(score.mean_abs_error_m, 'cm')}, max {fmt(score.max_abs_error_m, 'cm')}, "
+                 f"RMS {fmt(score.rms_error_m, 'cm')}, bias {fmt(score.mean_error_m, 'cm')}.")
     if score.unmatched_estimated:
-        ids = ", ".join(_cell(run.targets[i].target_id) for i in score.unmatched_estimated)
+        ids = ", ".join(cell(run.targets[i].target_id) for i in score.unmatched_estimated)
         lines.append(f"Estimated targets matching no true target (false detections?): {ids}.")
     if score.unmatched_truth:
-        ids = ", ".join(_cell(run.truth[i].target_id) for i in score.unmatched_truth)
+        ids = ", ".join(cell(run.truth[i].target_id) for i in score.unmatched_truth)
         lines.append(f"True targets with no estimate within {score.radius_m:g} m: {ids}.")
     return lines + [""]
 
@@ -304,7 +248,7 @@ def _events_section(run: RunData) -> list[str]:
     if spans:
         rows = [[s.state, f"{s.start_s:.1f}", f"{s.end_s - s.start_s:.1f}" if s.state not in TERMINAL_STATES else "–"]
                 for s in spans]
-        lines += _table(["state", "entered at (s)", "lasted (s)"], rows)
+        lines += table(["state", "entered at (s)", "lasted (s)"], rows)
     counts: dict[str, int] = {}
     for e in run.events:
         counts[e.kind] = counts.get(e.kind, 0) + 1
@@ -317,9 +261,9 @@ def _events_section(run: RunData) -> list[str]:
     for e in listed:
         kind = "**ABORT**" if e.kind == "state" else (f"**{e.kind}**" if e.kind in ALERT_KINDS else e.kind)
         extra = ", ".join(f"{k}={v}" for k, v in e.fields.items() if k != "state" and not isinstance(v, dict | list))
-        rows.append([f"{e.t_s:.1f}", kind, _state_before(spans, e.t_s, e), _cell(_short(e.message)),
-                     _cell(_short(extra))])
-    return lines + _table(["t (s)", "kind", "during state", "message", "details"], rows)
+        rows.append([f"{e.t_s:.1f}", kind, _state_before(spans, e.t_s, e), cell(short(e.message)),
+                     cell(short(extra))])
+    return lines + table(["t (s)", "kind", "during state", "message", "details"], rows)
 
 
 def _maps_section(run: RunData) -> list[str]:
@@ -338,7 +282,9 @@ def render_markdown(run: RunData, figures: Mapping[str, Path | None], score: Hei
     lines += _track_section(run, figures.get("track"))
     lines += _altitude_section(run, figures.get("altitude"))
     lines += _tilt_section(run, figures.get("tilt"))
+    lines += shadows_section(run)
     lines += _heights_section(run, score, figures.get("heights"))
+    lines += _drift_section(run)
     lines += _events_section(run)
     lines += _maps_section(run)
     lines += _files_section(run)
@@ -358,11 +304,15 @@ def generate_report(run_dir: Path | str, *, match_radius_m: float = DEFAULT_MATC
     NotADirectoryError
         When ``run_dir`` is not a folder.
     RunFolderError
-        When a run-folder file is malformed (the message names the file and line).
+        When a run-folder file is malformed (the message names the file and line), or the
+        folder holds no run file at all (an empty or unrelated folder: nothing is written).
     ValueError
         For a match radius that is not positive.
     """
     run = load_run(Path(run_dir))
+    if run.empty:
+        raise RunFolderError(run.root, f"not a run folder: it holds none of {', '.join(RUN_FILES)}; nothing to "
+                             "report")
     score = None
     if run.truth is not None and run.targets is not None:
         score = score_heights(run.targets, run.truth, radius_m=match_radius_m)
@@ -378,8 +328,4 @@ def generate_report(run_dir: Path | str, *, match_radius_m: float = DEFAULT_MATC
         stale = out / f"{name}.png"
         if path is None and stale.is_file():
             stale.unlink()
-    report = atomic_write_text(run.root / REPORT_NAME, render_markdown(run, figures, score))
-    for path in [*figures.values(), report]:
-        if path is not None:
-            path.chmod(0o644)  # the atomic writer's temporary file is private
-    return report
+    return atomic_write_text(run.root / REPORT_NAME, render_markdown(run, figures, score))

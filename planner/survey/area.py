@@ -9,11 +9,15 @@ Input file (GeoJSON, RFC 7946): a FeatureCollection, a Feature or a bare Polygon
 Polygon features carry ``properties.role``: ``"boundary"`` (exactly one; its interior
 rings are holes, i.e. obstacles) or ``"keepout"`` (extra obstacles, which may reach
 outside the boundary). A feature without a role is the boundary if it is the first
-polygon, else a keep-out. Coordinates are ``[lon, lat]`` in degrees, unless the document
-has the foreign member ``"local_origin": {"lat_deg": .., "lon_deg": ..}``: then they are
-``[east_m, north_m]`` about that origin. Point and line features, and the planner's own
+polygon, else a keep-out. A MultiPolygon is one polygon per part (a boundary must have
+one part). Coordinates are ``[lon, lat]`` in degrees, unless the document has the
+foreign member ``"local_origin": {"lat_deg": .., "lon_deg": ..}``: then they are
+``[east_m, north_m]`` about that origin. An area may cross the antimeridian (longitudes
+are taken the short way round); it must lie within :data:`MAX_EXTENT_M` of its origin
+and cover at least :data:`MIN_AREA_M2`. Point and line features, and the planner's own
 output features (roles ``path``, ``lane``, ``footprint``), are skipped, so a plan's
-GeoJSON reads back as its area.
+GeoJSON reads back as its area. The strict reading of the document is
+:mod:`planner.survey.area_geojson`.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from numpy.typing import NDArray
 
 from perception.geodesy import LocalOrigin
 from planner.errors import AreaError
+from planner.survey.area_geojson import RawPolygon, local_origin_of, polygons_of
 
 
 @dataclass(frozen=True)
@@ -74,56 +79,49 @@ class SurveyArea:
         return LocalOrigin(self.origin_lat_deg, self.origin_lon_deg)
 
 
-#: Features the reader skips: the planner's own outputs and non-area geometries.
-IGNORED_ROLES = ("path", "lane", "footprint")
-IGNORED_GEOMETRIES = ("Point", "MultiPoint", "LineString", "MultiLineString")
+#: The local plane is a tangent plane: every vertex must lie within this distance of the
+#: origin (a survey area is hundreds of metres; this also catches degrees typed as metres).
+MAX_EXTENT_M = 50_000.0
+#: Areas smaller than this are a mistake in the coordinates, not a survey, m^2.
+MIN_AREA_M2 = 1.0
 
 
-def _polygons(doc: Any, path: str | None) -> list[tuple[str | None, list]]:
-    """(role, rings) of every polygon in a GeoJSON document, in file order."""
-    if not isinstance(doc, dict) or "type" not in doc:
-        raise AreaError("not a GeoJSON object (no 'type')", path=path)
-    kind = doc["type"]
-    if kind == "FeatureCollection":
-        feats = doc.get("features")
-        if not isinstance(feats, list):
-            raise AreaError("FeatureCollection without a 'features' list", path=path)
-        out: list[tuple[str | None, list]] = []
-        for i, f in enumerate(feats):
-            if not isinstance(f, dict) or f.get("type") != "Feature":
-                raise AreaError(f"features[{i}] is not a Feature", path=path)
-            out += _polygons(f, path)
-        return out
-    if kind == "Feature":
-        props = doc.get("properties") or {}
-        role = props.get("role") if isinstance(props, dict) else None
-        geom = doc.get("geometry")
-        if not isinstance(geom, dict):
-            raise AreaError("Feature without a geometry", path=path)
-        if role in IGNORED_ROLES or geom.get("type") in IGNORED_GEOMETRIES:
-            return []
-        return [(role, rings) for _, rings in _polygons(geom, path)]
-    if kind == "Polygon":
-        rings = doc.get("coordinates")
-        if not isinstance(rings, list) or not rings:
-            raise AreaError("Polygon without coordinates", path=path)
-        return [(None, rings)]
-    if kind == "MultiPolygon":
-        polys = doc.get("coordinates") or []
-        return [(None, rings) for rings in polys]
-    raise AreaError(f"unsupported GeoJSON type {kind!r} (need Polygon features)", path=path)
+def _unwrapped_lon(lon_deg: NDArray[np.float64], reference_deg: float) -> NDArray[np.float64]:
+    """Longitudes moved by whole turns to within 180 deg of ``reference_deg`` (across the antimeridian)."""
+    return reference_deg + (lon_deg - reference_deg + 180.0) % 360.0 - 180.0
 
 
-def _ring_array(ring: Any, path: str | None) -> NDArray[np.float64]:
-    try:
-        arr = np.asarray(ring, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise AreaError(f"a ring holds non-numeric coordinates: {exc}", path=path) from exc
-    if arr.ndim != 2 or arr.shape[1] < 2 or arr.shape[0] < 4:
-        raise AreaError("every ring needs at least 4 positions [x, y] (closed)", path=path)
-    if not np.all(np.isfinite(arr[:, :2])):
-        raise AreaError("a ring holds non-finite coordinates", path=path)
-    return arr[:, :2]
+def _geographic_origin(rings: list[NDArray[np.float64]]) -> tuple[float, float]:
+    """Centre of the bounding box of lon/lat rings, the antimeridian crossed the short way."""
+    lon0 = float(rings[0][0, 0])
+    lon = _unwrapped_lon(np.concatenate([r[:, 0] for r in rings]), lon0)
+    lat = np.concatenate([r[:, 1] for r in rings])
+    centre = float((lon.min() + lon.max()) / 2)
+    return float((lat.min() + lat.max()) / 2), (centre + 180.0) % 360.0 - 180.0
+
+
+def _planar(polys: list[RawPolygon], origin: LocalOrigin | None, path: str | None) -> list[list[NDArray[np.float64]]]:
+    """Rings in local metres (east, north); geographic rings converted about ``origin``."""
+    out = []
+    for poly in polys:
+        rings = []
+        for k, r in enumerate(poly.rings):
+            if origin is None:
+                rings.append(r)
+                continue
+            if np.any(np.abs(r[:, 0]) > 180) or np.any(np.abs(r[:, 1]) > 90):
+                raise AreaError(f"{poly.where}[{k}]: coordinates out of range for [lon, lat] degrees; for local "
+                                "metres add a \"local_origin\" member", path=path)
+            n, e = origin.to_local(r[:, 1], _unwrapped_lon(r[:, 0], origin.lon_deg))
+            rings.append(np.column_stack([e, n]))
+        for k, r in enumerate(rings):
+            far = float(np.max(np.hypot(r[:, 0], r[:, 1])))
+            if not far <= MAX_EXTENT_M:
+                raise AreaError(f"{poly.where}[{k}]: a vertex lies {far / 1000:.0f} km from the origin; a survey "
+                                f"area must lie within {MAX_EXTENT_M / 1000:.0f} km of it (check the coordinates)",
+                                path=path)
+        out.append(rings)
+    return out
 
 
 def area_from_geojson(
@@ -134,82 +132,77 @@ def area_from_geojson(
     Parameters
     ----------
     doc : dict
-        The GeoJSON (see the module docstring).
+        The GeoJSON (see the module docstring and :mod:`planner.survey.area_geojson`).
     origin : (lat_deg, lon_deg), optional
         Origin of the local plane for geographic input; default: the centre of the
-        boundary's bounding box. Ignored (and must agree) for local input.
+        boundary's bounding box (across the antimeridian, the short way round). Ignored
+        for local input.
 
     Raises
     ------
     AreaError
         For a malformed document, no or several boundaries, invalid polygons,
-        coordinates out of range.
+        coordinates out of range, an area too small or too far from its origin.
     """
-    polys = _polygons(doc, path)
+    polys = polygons_of(doc, path=path)
     if not polys:
         raise AreaError("no polygon found", path=path)
-    local = doc.get("local_origin") if isinstance(doc, dict) else None
-    boundary_idx = [i for i, (r, _) in enumerate(polys) if r == "boundary"]
-    if not boundary_idx:
-        boundary_idx = [0]
+    boundary_idx = [i for i, p in enumerate(polys) if p.role == "boundary"]
     if len(boundary_idx) > 1:
-        raise AreaError("more than one polygon has role 'boundary'; survey one area at a time",
-                        path=path)
-    for role, _ in polys:
-        if role not in (None, "boundary", "keepout"):
-            raise AreaError(f"unknown role {role!r} (use 'boundary' or 'keepout')", path=path)
-    rings_xy: list[list[NDArray[np.float64]]] = [[_ring_array(r, path) for r in rings]
-                                                 for _, rings in polys]
+        raise AreaError("more than one polygon has role 'boundary'; survey one area at a time", path=path)
+    b_idx = boundary_idx[0] if boundary_idx else 0
+    if polys[b_idx].role == "keepout":
+        raise AreaError("every polygon is a keep-out; give the survey area role \"boundary\"", path=path)
+    local = local_origin_of(doc, path=path)
     if local is not None:
-        if not isinstance(local, dict) or not {"lat_deg", "lon_deg"} <= set(local):
-            raise AreaError("local_origin must be {\"lat_deg\": .., \"lon_deg\": ..}", path=path)
-        lat0, lon0 = float(local["lat_deg"]), float(local["lon_deg"])
-        planar = rings_xy
+        lat0, lon0 = local
+        planar = _planar(polys, None, path)
     else:
-        for rings in rings_xy:
-            for r in rings:
-                if np.any(np.abs(r[:, 0]) > 180) or np.any(np.abs(r[:, 1]) > 90):
-                    raise AreaError("coordinates out of range for [lon, lat] degrees; for local "
-                                    "metres add a \"local_origin\" member", path=path)
-        b = rings_xy[boundary_idx[0]][0]
         if origin is None:
-            lat0 = float((b[:, 1].min() + b[:, 1].max()) / 2)
-            lon0 = float((b[:, 0].min() + b[:, 0].max()) / 2)
+            lat0, lon0 = _geographic_origin(list(polys[b_idx].rings[:1]))
         else:
             lat0, lon0 = origin
-        planar = []
-        for rings in rings_xy:
-            conv = []
-            for r in rings:
-                n, e = LocalOrigin(lat0, lon0).to_local(r[:, 1], r[:, 0])
-                conv.append(np.column_stack([e, n]))
-            planar.append(conv)
-    if not (-90 <= lat0 <= 90 and -180 <= lon0 <= 180):
-        raise AreaError(f"origin ({lat0}, {lon0}) out of range", path=path)
+        if not (-90 <= lat0 <= 90 and -180 <= lon0 <= 180):
+            raise AreaError(f"origin ({lat0}, {lon0}) out of range", path=path)
+        planar = _planar(polys, LocalOrigin(lat0, lon0), path)
     polygons = []
     for i, rings in enumerate(planar):
         poly = shapely.Polygon(rings[0], rings[1:])
         if not poly.is_valid or poly.area <= 0:
             reason = shapely.is_valid_reason(poly)
-            raise AreaError(f"polygon {i} is not a valid polygon ({reason})", path=path)
+            raise AreaError(f"{polys[i].where}: polygon {i} is not a valid polygon ({reason})", path=path)
         polygons.append(shapely.orient_polygons(poly))
-    boundary = polygons[boundary_idx[0]]
-    keepouts = tuple(p for i, p in enumerate(polygons) if i != boundary_idx[0])
+    boundary = polygons[b_idx]
+    keepouts = tuple(p for i, p in enumerate(polygons) if i != b_idx)
     remaining = boundary.area - sum(k.intersection(boundary).area for k in keepouts)
     if remaining <= 0 or math.isclose(remaining, 0.0, abs_tol=1e-6):
         raise AreaError("keep-outs cover the whole boundary; nothing to survey", path=path)
+    if boundary.area < MIN_AREA_M2:
+        raise AreaError(f"{polys[b_idx].where}: the area is {boundary.area:.3g} m^2, smaller than {MIN_AREA_M2:g} m^2; "
+                        "check the coordinates (degrees, [lon, lat] order)", path=path)
     return SurveyArea(lat0, lon0, boundary, keepouts)
 
 
 def load_area(path: str | Path, *, origin: tuple[float, float] | None = None) -> SurveyArea:
-    """Read a GeoJSON area file (see :func:`area_from_geojson`)."""
+    """Read a GeoJSON area file (see :func:`area_from_geojson`).
+
+    Raises
+    ------
+    AreaError
+        Naming the file, for an unreadable file, text that is not UTF-8 JSON, or any
+        problem :func:`area_from_geojson` finds.
+    """
     p = Path(path)
     try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
+        doc = json.loads(p.read_bytes().decode("utf-8"))
     except OSError as exc:
-        raise AreaError(f"cannot read area file: {exc.strerror}", path=str(p)) from exc
+        raise AreaError(f"cannot read area file: {exc.strerror or exc}", path=str(p)) from exc
+    except UnicodeDecodeError as exc:
+        raise AreaError(f"not UTF-8 text ({exc.reason} at byte {exc.start})", path=str(p)) from None
     except json.JSONDecodeError as exc:
         raise AreaError(f"not valid JSON: {exc}", path=str(p)) from exc
+    except RecursionError:
+        raise AreaError("not valid JSON: nested too deeply", path=str(p)) from None
     return area_from_geojson(doc, path=str(p), origin=origin)
 
 

@@ -55,6 +55,7 @@ from typing import Any
 
 import numpy as np
 
+from perception.atomic_file import atomic_write_text
 from planner.survey.area import SurveyArea, area_to_geojson
 from planner.survey.footprint import Footprint, swept_polygon
 from planner.survey.plan import SurveyPlan
@@ -185,12 +186,17 @@ def plan_geojson(plan: SurveyPlan, area: SurveyArea, *, footprint_every: int = 1
     return {"type": "FeatureCollection", "features": feats}
 
 
+def _area_text(area_m2: float) -> str:
+    """An area with its figures kept: 12,309 m^2, 14.2 m^2 (never "0 m^2" for a small one)."""
+    return f"{area_m2:,.0f} m^2" if area_m2 >= 100 else f"{area_m2:.3g} m^2"
+
+
 def summary_text(plan: SurveyPlan) -> str:
     """A short human-readable summary of the plan."""
     s = plan.summary
     lines = [
         f"origin               {plan.origin_lat_deg:.7f}, {plan.origin_lon_deg:.7f}",
-        f"area to cover        {s.area_m2:,.0f} m^2 (water depth {plan.water_depth_m:g} m)",
+        f"area to cover        {_area_text(s.area_m2)} (water depth {plan.water_depth_m:g} m)",
         f"lanes                {s.n_lanes} at heading {math.degrees(s.lane_heading_rad):.1f} deg, "
         f"spacing {s.lane_spacing_m:.2f} m ({s.n_runs} runs over both passes)",
     ]
@@ -220,7 +226,7 @@ def summary_text(plan: SurveyPlan) -> str:
 def write_outputs(plan: SurveyPlan, area: SurveyArea, out_dir: str | Path, *,
                   altitude_reference: str = "seabed", stem: str = "survey") -> dict[str, Path]:
     """Write plan.json, STEM.plan, STEM.waypoints, STEM.geojson and summary.txt to
-    ``out_dir`` (created if needed); each file is written whole then renamed into place.
+    ``out_dir`` (created if needed); each file is written atomically (:mod:`perception.atomic_file`).
     Returns the paths by kind."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -233,11 +239,4 @@ def write_outputs(plan: SurveyPlan, area: SurveyArea, out_dir: str | Path, *,
         "geojson": (f"{stem}.geojson", json.dumps(plan_geojson(plan, area, footprint_every=n_fp))),
         "summary": ("summary.txt", summary_text(plan)),
     }
-    paths = {}
-    for kind, (name, text) in texts.items():
-        target = out / name
-        tmp = out / f".{name}.tmp"
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(target)
-        paths[kind] = target
-    return paths
+    return {kind: atomic_write_text(out / name, text) for kind, (name, text) in texts.items()}

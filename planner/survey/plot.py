@@ -6,6 +6,7 @@ Uses matplotlib's Agg canvas directly (no global pyplot state).
 
 from __future__ import annotations
 
+import io
 import math
 from pathlib import Path
 from typing import Any
@@ -18,6 +19,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.patches import Polygon as MplPolygon
 
+from perception.atomic_file import atomic_write_bytes
 from planner.survey.area import SurveyArea
 from planner.survey.footprint import Footprint
 from planner.survey.plan import SurveyPlan
@@ -96,4 +98,6 @@ def plot_plan(plan: SurveyPlan, area: SurveyArea, path: str | Path, *, dpi: int 
     ax.set_ylim(miny, maxy)
     ax.grid(True, color="white", lw=0.8)
     fig.legend(handles=handles, loc="outside right upper", fontsize=8, frameon=False)
-    fig.savefig(str(path), dpi=dpi)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi)
+    atomic_write_bytes(path, buffer.getvalue())

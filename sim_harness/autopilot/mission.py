@@ -13,7 +13,9 @@
   and "Flight plan received". A COUNT from another sender while an upload runs is
   DENIED, as is a download meanwhile. More than ``MAX_ITEMS`` is NO_SPACE ("Only N items
   are supported"). Items arrive as MISSION_ITEM_INT or MISSION_ITEM (float; "got
-  MISSION_ITEM; GCS should send MISSION_ITEM_INT", once).
+  MISSION_ITEM; GCS should send MISSION_ITEM_INT", once). An item when no upload runs
+  (a sender re-sending its last item after a lost final ACK) gets MAV_MISSION_ERROR
+  (``GCS_MAVLINK::handle_mission_item``, GCS_Common.cpp).
 - Download: MISSION_REQUEST_LIST -> MISSION_COUNT (home included); MISSION_REQUEST_INT ->
   MISSION_ITEM_INT, MISSION_REQUEST -> MISSION_ITEM. Seq 0 is always the live home.
   ``current`` is 1 when the item's *command id* equals the current nav index (as 4.5's
@@ -125,7 +127,8 @@ class MissionProtocol:
         if msg.get_type() == "MISSION_ITEM_INT" and int(msg.current) in (2, 3):
             return []  # GUIDED "fly to" / altitude change requests are not simulated
         if not self._receiving:
-            return []  # not uploading: stray items are ignored
+            # ArduSub 4.5 GCS_Common.cpp GCS_MAVLINK::handle_mission_item: not receiving
+            return [self._ack(peer, mavlink.MAV_MISSION_ERROR)]
         if peer != self._upload_peer:
             return [self._ack(peer, mavlink.MAV_MISSION_DENIED)]
         if int(msg.seq) != self._next_seq:

@@ -88,6 +88,8 @@ _TARGET_KEYS = {"id", "shape", "north_m", "east_m", "length_m", "width_m", "diam
 _VIEW_KEYS = {"north_m", "east_m", "heading_deg", "altitude_m", "tilt_deg", "pitch_deg", "roll_deg"}
 _SONAR_KEYS = {"window_start_m", "window_length_m", "samples_per_beam", "sound_speed_m_s"}
 _MAX_INCLUDE_DEPTH = 8
+#: Largest magnitude of any number in a scene file (metres, degrees, dB).
+MAX_SCENE_VALUE = 1.0e5
 
 
 @dataclass(frozen=True)
@@ -151,6 +153,8 @@ class _Ctx:
         v = float(v)
         if not math.isfinite(v):
             raise self.fail(full, f"must be finite, got {v}")
+        if abs(v) > MAX_SCENE_VALUE:  # no distance, angle or level of a scene is this large
+            raise self.fail(full, f"must be within +-{MAX_SCENE_VALUE:g}, got {v:g}")
         if positive and v <= 0:
             raise self.fail(full, f"must be > 0, got {v}")
         if nonneg and v < 0:

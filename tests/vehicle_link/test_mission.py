@@ -72,6 +72,24 @@ def test_upload_machine_ignores_stale_accept_and_fails_on_refusal():
         MissionUpload(_survey(2)).on_request(5)
 
 
+def test_upload_machine_ends_unconfirmed_when_the_final_ack_was_lost():
+    """The last item re-sent after a lost ACCEPTED: ArduSub 4.5, no longer receiving, answers
+    MAV_MISSION_ERROR (GCS_Common.cpp GCS_MAVLINK::handle_mission_item); the upload has
+    ended, to be verified by download, not failed."""
+    items = _survey(1)
+    up = MissionUpload(items)
+    up.start()
+    up.on_request(0)
+    assert up.on_timeout() == [SendItem(0, items[0])]  # the ACCEPTED was lost: send the last again
+    up.on_ack(mavlink2.MAV_MISSION_ERROR)
+    assert up.done and up.unconfirmed
+    early = MissionUpload(_survey(2))
+    early.start()
+    early.on_request(0)
+    with pytest.raises(MissionError):  # before the end an ERROR is a refusal
+        early.on_ack(mavlink2.MAV_MISSION_ERROR)
+
+
 def test_upload_machine_timeouts_resend_then_give_up():
     items = _survey(2)
     up = MissionUpload(items, max_retries=2)

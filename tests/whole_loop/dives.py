@@ -20,7 +20,10 @@ from planner.dryrun.scenario import load_scenario
 from sim_harness.vehicle.dynamics import AttitudeDisturbance
 
 SITE = Path(__file__).parent / "data" / "compact"
-MIN_CLEARANCE_M = 0.3  # survey.toml [vehicle] min_clearance_m
+#: Lowest true altitude the dives must keep: 0.1 m over the tallest target (0.2 m). The
+#: survey's lowest allowed altitude, target_height_max_m + min_clearance_m = 0.5 m, is what
+#: the controller holds; a descent's overshoot below it is a warning (altitude_excursions).
+MIN_CLEARANCE_M = 0.3
 DEPTH_LIMIT_M = 10.0  # survey.toml [vehicle] max_depth_m
 MAV_CMD_COMPONENT_ARM_DISARM = 400
 MID_LANE_S = 3.0  # s after entering PASS_1

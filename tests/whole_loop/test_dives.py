@@ -122,7 +122,8 @@ def test_mavlogdump_reads_the_tlog_near_the_plans_origin(nominal: DryRun):
 @pytest.mark.slow
 def test_nominal_dive_writes_a_complete_run_folder(nominal: DryRun):
     out = nominal.out_dir
-    for name in ("plan/plan.json", "plan/survey.plan", "plan/survey.waypoints", "dive.tlog", "events.jsonl",
+    for name in ("plan/plan.json", "plan/survey.plan", "plan/survey.waypoints", "plan/survey.png", "dive.tlog",
+                 "events.jsonl",
                  "nav.csv", "filter.csv", "tilt.csv", "targets.geojson", "targets.csv", "mosaic.tif", "mosaic.png",
                  "mosaic_heights.png", "summary.json", "truth.json"):
         assert (out / name).is_file() and (out / name).stat().st_size > 0, name
@@ -133,6 +134,14 @@ def test_nominal_dive_writes_a_complete_run_folder(nominal: DryRun):
     assert all(-90 < t["lat"] < 90 and -180 < t["lon"] < 180 for t in truth["targets"])
     geo = json.loads((out / "targets.geojson").read_text())
     assert geo["type"] == "FeatureCollection" and geo["features"]
+    # one count of targets everywhere: summary, targets.csv, targets.geojson
+    with (out / "targets.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert summary["n_targets"] == len(rows) == len(geo["features"])
+    assert summary["n_targets_with_height"] == sum(1 for r in rows if r["height_m"])
+    # the clearance over the tallest target (0.3 m over 0.2 m) as the lowest allowed altitude
+    assert summary["min_altitude_allowed_m"] == pytest.approx(0.5)
+    assert all(ex["lowest_m"] < ex["limit_m"] for ex in summary["altitude_excursions"])
 
 
 @pytest.mark.slow

@@ -43,7 +43,8 @@ Pose mapping (header floats, degrees for angles; see :func:`frame_from_header`):
   platform values from a vehicle ("AUV") integration. When the whole group (these five
   plus ``Velocity`` and the three rates) is exactly 0.0 - what the ARIS software records
   with no integration, as in sample.aris - they are unknown (NaN); otherwise each value is
-  used as is (NaN stays NaN). The header states no units or signs for them: metres and
+  used as is (NaN stays NaN), except an ``Altitude`` of 0 or less, which is unknown (an
+  integration without an altimeter). The header states no units or signs for them: metres and
   degrees are assumed, and pitch and roll are assumed to follow ArduPilot's signs.
 - ``heading_rad`` falls back to ``CompassHeading`` (the sonar's own compass) when the
   platform heading is unknown and the compass triple is not all exactly 0.0.
@@ -71,6 +72,7 @@ from typing import Any
 
 import numpy as np
 
+from perception.sonar_io import validate
 from perception.sonar_io.beams import BeamTable, load_beam_table, table_name_for
 from perception.sonar_io.frame import SonarFrame
 
@@ -79,8 +81,9 @@ FILE_HEADER_SIZE = 1024
 FRAME_HEADER_SIZE = 1024
 #: Default full elevation opening of ARIS lenses, rad (14 deg).
 DEFAULT_ELEVATION_APERTURE_RAD = math.radians(14.0)
-#: Plausible sound speed in water, m/s; outside this a header is taken as corrupt.
-SOUND_SPEED_LIMITS_M_S = (1000.0, 2500.0)
+#: Plausible sound speed in water, m/s; outside this a header is taken as corrupt (the
+#: same limits as every frame's, :mod:`perception.sonar_io.validate`).
+SOUND_SPEED_LIMITS_M_S = validate.SOUND_SPEED_LIMITS_M_S
 
 #: FileHeader fields used here: name -> (byte offset, struct format).
 FILE_HEADER_FIELDS: dict[str, tuple[int, str]] = {
@@ -254,7 +257,8 @@ def pose_from_header(header: Header) -> dict[str, float]:
     )
     if not _group_unknown(header, _PLATFORM_GROUP):
         pose["sonar_depth_m"] = float(header["Depth"])
-        pose["altitude_m"] = float(header["Altitude"])
+        # An integration without an altimeter records 0: no sonar sits on the seabed.
+        pose["altitude_m"] = float(header["Altitude"]) if header["Altitude"] > 0.0 else math.nan
         pose["vehicle_pitch_rad"] = _deg_to_rad(header["Pitch"])
         pose["vehicle_roll_rad"] = _deg_to_rad(header["Roll"])
         pose["heading_rad"] = _deg_to_rad(header["Heading"])

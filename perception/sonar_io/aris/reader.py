@@ -43,6 +43,8 @@ from perception.sonar_io.aris.format import (
 )
 from perception.sonar_io.aris.writer import PING_MODE_FOR_BEAMS, aris_grid, write_aris
 from perception.sonar_io.frame import SonarFrame
+from perception.sonar_io.sniff import file_kind
+from perception.sonar_io.validate import MAX_RANGE_M
 
 __all__ = [
     "ARIS_SIGNATURE",
@@ -144,8 +146,9 @@ class ArisRecording:
                 key="FileHeader",
             )
         if values["Version"] != ARIS_SIGNATURE:
+            hint = " (it is a .npz frame file: give it the .npz suffix)" if file_kind(self.path) == "npz" else ""
             raise self._error(
-                f"file signature is 0x{values['Version']:08x}, not 0x{ARIS_SIGNATURE:08x}; not an ARIS recording",
+                f"file signature is 0x{values['Version']:08x}, not 0x{ARIS_SIGNATURE:08x}; not an ARIS recording{hint}",
                 key="Version",
             )
         return values
@@ -232,6 +235,14 @@ class ArisRecording:
             beam_table_for(header)
         except ValueError as exc:
             raise bad("TheSystemType", str(exc)) from None
+        _, window_end_m = window_edges_m(header)
+        if window_end_m > MAX_RANGE_M:
+            raise bad(
+                "SampleStartDelay",
+                f"the range window (SampleStartDelay {header['SampleStartDelay']} us, SamplePeriod "
+                f"{header['SamplePeriod']} us x {header['SamplesPerBeam']} samples at {speed:.1f} m/s) reaches "
+                f"{window_end_m / 1000:,.1f} km, beyond the {MAX_RANGE_M:g} m any sonar sees: a corrupt header",
+            )
         if layout is None:
             return
         if n_beams != layout.n_beams:

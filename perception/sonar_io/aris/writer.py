@@ -10,7 +10,6 @@ import datetime as dt
 import math
 import os
 import struct
-import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from perception.atomic_file import atomic_write
 from perception.errors import FrameFormatError
 from perception.sonar_io.aris.format import (
     ARIS_SIGNATURE,
@@ -210,26 +210,22 @@ def write_aris(
         When ``frames`` is empty.
     """
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            count = _write_frames(
-                handle,
-                frames,
-                system_type=system_type,
-                telephoto=telephoto,
-                sound_speed_m_s=sound_speed_m_s,
-                serial_number=serial_number,
-                frequency_hi=frequency_hi,
-                header_id=header_id,
-            )
-            if count == 0:
-                raise ValueError("no frames to write")
-        os.replace(tmp_name, p)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
+
+    def write(handle: Any) -> None:
+        count = _write_frames(
+            handle,
+            frames,
+            system_type=system_type,
+            telephoto=telephoto,
+            sound_speed_m_s=sound_speed_m_s,
+            serial_number=serial_number,
+            frequency_hi=frequency_hi,
+            header_id=header_id,
+        )
+        if count == 0:
+            raise ValueError("no frames to write")
+
+    atomic_write(p, write)
     return p
 
 

@@ -16,6 +16,10 @@ from perception.sonar_io.npz import load_frames, save_frame, save_frames
 
 DTYPES = (np.uint8, np.uint16, np.float32)
 ANGLE_FIELDS = {"tilt_rad", "vehicle_pitch_rad", "vehicle_roll_rad", "heading_rad"}
+#: Values a frame's optional fields may take (perception.sonar_io.validate refuses the rest).
+PLAUSIBLE = {"sonar_depth_m": (-1.0, 1e4), "altitude_m": (1e-3, 1e3), "tilt_rad": (-1.5, 1.5),
+             "vehicle_pitch_rad": (-1.5, 1.5), "vehicle_roll_rad": (-3.1, 3.1), "heading_rad": (-60.0, 60.0),
+             "north_m": (-1e4, 1e4), "east_m": (-1e4, 1e4), "sound_speed_m_s": (1300.0, 1800.0)}
 
 
 @st.composite
@@ -43,7 +47,8 @@ def frames(draw, geometry=None, dtype=None):
     else:
         image = rng.integers(0, np.iinfo(dtype).max, size=shape, dtype=dtype, endpoint=True)
     optional = {
-        name: draw(st.one_of(st.just(math.nan), st.floats(-1e4, 1e4, allow_nan=False))) for name in OPTIONAL_FIELDS
+        name: draw(st.one_of(st.just(math.nan), st.floats(*PLAUSIBLE[name], allow_nan=False)))
+        for name in OPTIONAL_FIELDS
     }
     return SonarFrame(
         image=image,

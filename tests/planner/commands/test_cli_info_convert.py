@@ -129,8 +129,11 @@ def test_convert_refuses_overwriting_input(tmp_path, sample, capsys):
 def test_truncated_recording(sample, tmp_path, capsys):
     cut = tmp_path / "cut.aris"
     cut.write_bytes(sample.read_bytes()[:-5000])
-    assert main(["info", str(cut)]) == 0
-    assert "frame 5, field SampleData" in capsys.readouterr().out
+    # info describes what it can read (stdout), then exits 2 like convert and heights
+    assert main(["info", str(cut)]) == EXIT_BAD_INPUT
+    captured = capsys.readouterr()
+    assert "frame 5, field SampleData" in captured.out
+    assert captured.err.count("\n") == 1 and str(cut) in captured.err and "truncated" in captured.err
     err = run_bad(["convert", str(cut), str(tmp_path / "c.npz")], capsys)
     assert "frame 5" in err and "--frames 0:5" in err
     assert main(["convert", str(cut), str(tmp_path / "c.npz"), "--frames", "0:5"]) == 0
@@ -146,8 +149,11 @@ def test_corrupt_frame_fails_convert_naming_it(sample, tmp_path, capsys):
     err = run_bad(["convert", str(bad), str(tmp_path / "b.npz")], capsys)
     assert "frame 3" in err and "SoundSpeed" in err
     assert main(["convert", str(bad), str(tmp_path / "b.npz"), "--frames", ":3"]) == 0
-    assert main(["info", str(bad)]) == 0
-    assert "corrupt" in capsys.readouterr().out
+    capsys.readouterr()
+    assert main(["info", str(bad)]) == EXIT_BAD_INPUT
+    captured = capsys.readouterr()
+    assert "corrupt" in captured.out
+    assert captured.err.count("\n") == 1 and str(bad) in captured.err and "SoundSpeed" in captured.err
 
 
 def test_info_on_converted_npz(sample, tmp_path, capsys):

@@ -46,8 +46,9 @@ def test_pose_from_a_nav_csv(tank_frames, tmp_path):
         bare.append(save_frame(tmp_path / f"bare{k}.npz", stripped))
     nav = tmp_path / "nav.csv"
     nav.write_text("\n".join(rows) + "\n")
-    assert main(["mosaic", *map(str, bare), "--out", str(tmp_path / "a"), "--no-registration"]) == 2
-    assert main(["mosaic", *map(str, bare), "--nav", str(nav), "--out", str(tmp_path / "b")]) == 0
+    origin = ["--origin", "43.3,5.37"]
+    assert main(["mosaic", *map(str, bare), "--out", str(tmp_path / "a"), "--no-registration", *origin]) == 2
+    assert main(["mosaic", *map(str, bare), "--nav", str(nav), "--out", str(tmp_path / "b"), *origin]) == 0
     doc = json.loads((tmp_path / "b" / "targets.geojson").read_text())
     assert sum(f["properties"]["height_m"] is not None for f in doc["features"]) == 5
 
@@ -55,5 +56,6 @@ def test_pose_from_a_nav_csv(tank_frames, tmp_path):
 def test_bad_nav_is_named(tank_frames, tmp_path, capsys):
     nav = tmp_path / "nav.csv"
     nav.write_text("t_s,north_m\n0,1\n1,2\n")
-    assert main(["mosaic", str(tank_frames[0]), "--nav", str(nav), "--out", str(tmp_path / "x")]) == 2
+    assert main(["mosaic", str(tank_frames[0]), "--nav", str(nav), "--out", str(tmp_path / "x"),
+                 "--origin", "43.3,5.37"]) == 2
     assert "lacks columns" in capsys.readouterr().err

@@ -151,3 +151,14 @@ def test_directory_source_reads_each_file_once(tmp_path):
 def test_directory_source_needs_the_folder(tmp_path):
     with pytest.raises(FileNotFoundError, match="does not exist"):
         DirectorySonarSource(tmp_path / "missing")
+
+
+def test_directory_source_refuses_frames_on_another_clock(tmp_path, caplog):
+    save_frame(tmp_path / "0001.npz", _frame(1_700_000_000.0))  # Unix time: not the companion's monotonic clock
+    save_frame(tmp_path / "0002.npz", _frame(101.0))
+    source = DirectorySonarSource(tmp_path)
+    with caplog.at_level("WARNING"):
+        frames = source.poll(100.0)
+    assert [f.timestamp_s for f in frames] == [101.0]
+    assert source.frames_off_clock == 1
+    assert "time.monotonic()" in caplog.text and "0001.npz" in caplog.text

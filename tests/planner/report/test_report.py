@@ -15,12 +15,13 @@ import pytest
 
 from planner.cli import main as cli_main
 from planner.report.data import Event, RunFolderError, load_run
-from planner.report.figures import state_at, state_spans
 from planner.report.markdown import FIGURE_DIR, REPORT_NAME, generate_report
+from planner.report.timeline import state_at, state_spans
 from tests.planner.report.report_run import ESTIMATES, PASSES, TRUE_TARGETS, write_run
 
 SECTIONS = ("# Dive report:", "## Track against plan", "## Altitude and the altitude filter",
-            "## Tilt and shadow margins", "## Target heights", "### Heights against truth", "## States and events",
+            "## Tilt and shadow margins", "## Shadows in view",
+            "## Target heights", "### Heights against truth", "## States and events",
             "## Maps", "## Data files")
 
 
@@ -76,21 +77,24 @@ def test_simulated_run_report_has_every_section_and_real_figures(sim_run: Path) 
 
 def test_key_figures_equal_what_the_files_say(sim_run: Path) -> None:
     text = generate_report(sim_run).read_text(encoding="utf-8")
-    figures = dict((r[0], r[1]) for r in table_rows(text, "key figure"))
+    rows = table_rows(text, "key figure")
+    figures = dict((r[0], r[1]) for r in rows)
     summary = json.loads((sim_run / "summary.json").read_text())
-    assert figures["smallest clearance above the seabed"] == f"{summary['min_clearance_m']:.2f} m"
+    assert figures["lowest altitude above the seabed (simulator truth)"] == f"{summary['min_clearance_m']:.2f} m"
     assert figures["dive duration (simulated clock)"].startswith(f"{summary['sim_duration_s']:.1f} s")
     assert figures["target shadows inside the vertical FOV"] == f"{100 * summary['shadow_in_fov_ratio']:.1f} %"
-    assert figures["controller"] == summary["controller"]  # extra summary fields are shown too
-    assert figures["frames_processed"] == "4071"
-    assert "states" not in figures and "filter_counters" not in figures  # lists and objects are not
+    assert figures["sonar frames measured"] == "4071"
+    # every figure shown is explained; fields the report does not know are named, never shown bare
+    assert all(len(r) == 3 and r[2] for r in rows)
+    assert "controller" not in figures and "states" not in figures and "filter_counters" not in figures
+    assert "summary.json holds 1 more field(s) this report does not explain (controller)" in text
     nav = read_csv(sim_run / "nav.csv")
     ne = np.array([[float(r["north_m"]), float(r["east_m"])] for r in nav])
     flown = float(np.hypot(*np.diff(ne, axis=0).T).sum())
     assert figures["distance flown (telemetry)"] == f"{flown:.2f} m"
     assert figures["deepest (telemetry)"] == f"{max(float(r['depth_m']) for r in nav):.2f} m"
     solved = sum(math.isfinite(e[3]) for e in ESTIMATES)
-    assert figures["targets in targets.csv"] == f"{len(ESTIMATES)} ({solved} with a height)"
+    assert figures["targets (on the map)"] == f"{len(ESTIMATES)} ({solved} with a height)"
     assert figures["warnings / failsafes"] == "1 / 0"
     rejected = int(read_csv(sim_run / "filter.csv")[-1]["rejected_total"])
     assert f"Altimeter readings rejected by the filter: {rejected}." in text

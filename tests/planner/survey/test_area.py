@@ -107,7 +107,7 @@ def test_a_north_step_is_a_latitude_step() -> None:
     [
         ({"type": "FeatureCollection", "features": []}, "no polygon"),
         ({"coordinates": []}, "not a GeoJSON"),
-        ({"type": "Polygon", "coordinates": [[[0, 0], [1, 1], [1, 0], [0, 1], [0, 0]]]},
+        ({"type": "Polygon", "coordinates": [[[0, 0], [1e-3, 1e-3], [1e-3, 0], [0, 1e-3], [0, 0]]]},
          "not a valid polygon"),
         ({"type": "Polygon", "coordinates": [[[0, 0], [1000, 0], [1000, 10], [0, 0]]]},
          "out of range"),

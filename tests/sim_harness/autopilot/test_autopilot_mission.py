@@ -83,7 +83,8 @@ def test_upload_and_readback_over_mavlink():
 
 
 def test_upload_rerequests_times_out_and_refuses_what_it_cannot_store():
-    """queued_request_send re-asks after 1 s; 8 s of silence: OPERATION_CANCELLED."""
+    """queued_request_send re-asks after 1 s; 8 s of silence: OPERATION_CANCELLED; an item
+    outside an upload: ERROR."""
     with running_vehicle() as (_sim, gcs):
         gcs.mav.mission_count_send(1, 1, 3, 0)
         assert gcs.wait_for("MISSION_REQUEST", 1.0).seq == 0
@@ -103,6 +104,9 @@ def test_upload_rerequests_times_out_and_refuses_what_it_cannot_store():
             assert gcs.wait_for("MISSION_ACK", 1.0).type == expected
         gcs.mav.mission_count_send(1, 1, 1, M.MAV_MISSION_TYPE_FENCE)
         assert gcs.wait_for("MISSION_ACK", 1.0).type == M.MAV_MISSION_UNSUPPORTED
+        # An item with no upload running (GCS_MAVLINK::handle_mission_item): MAV_MISSION_ERROR.
+        gcs.mav.send(_item(1))
+        assert gcs.wait_for("MISSION_ACK", 1.0).type == M.MAV_MISSION_ERROR
 
 
 def test_auto_runs_only_the_alt_frames_sub_accepts_and_skips_ineffective_do_items():

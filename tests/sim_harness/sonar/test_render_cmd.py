@@ -86,7 +86,7 @@ def test_render_sweep_with_tilt_and_aris(tmp_path: Path) -> None:
     [
         (["render", "no-such-scene", "--altitude", "1"], "not a built-in scene"),
         (["render", "paper-tank", "--altitude", "2.0"], "above the water surface"),
-        (["render", "paper-tank", "--altitude", "0.5", "--window-length-m", "-1"], "window_length_m"),
+        (["render", "paper-tank", "--altitude", "0.5", "--window-length-m", "-1"], "--window-length-m"),
         (["render", "paper-tank", "--altitude", "0.5", "--line", "0", "0", "1", "0", "--count", "1"], "--count"),
     ],
 )
