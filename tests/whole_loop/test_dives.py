@@ -72,7 +72,8 @@ def test_topside_pilot_throughout_never_disarms(nominal: DryRun):
 def test_mission_verified_against_what_ardusub_stores(nominal: DryRun):
     """The AUTO mission is checked by download against what ArduSub 4.5 keeps (int32 1e-7
     degrees, whole centimetres, NAV_WAYPOINT's param1 only), not against the floats sent:
-    the readback differs from what was sent, and the upload verified at the first try."""
+    the items are written as 4.5 stores them, so the vehicle keeps them to the last unit,
+    and the upload verified at the first try."""
     from planner.mission.preflight_steps import link_item
     from planner.survey.mission_files import mission_items
 
@@ -80,7 +81,10 @@ def test_mission_verified_against_what_ardusub_stores(nominal: DryRun):
     stored = nominal.simulator.autopilot.mission.items[1:]  # seq 0 is home
     assert [s.command for s in stored] == [item.command for item in sent]
     located = [(item, s) for item, s in zip(sent, stored, strict=True) if s.has_location]
-    assert located and any(item.latitude_deg * 1e7 != s.lat_e7 for item, s in located)  # quantised
+    assert located
+    for item, s in located:  # sent in whole 1e-7 degrees and centimetres: kept unchanged
+        assert abs(item.latitude_deg * 1e7 - s.lat_e7) < 1e-3 and abs(item.longitude_deg * 1e7 - s.lon_e7) < 1e-3
+        assert abs(item.altitude_m * 100.0 - s.alt_cm) < 1e-6
     for item, s in located:  # the client's model of what 4.5 keeps matches the vehicle's
         model = ardusub_stored(item)
         assert (model.lat_e7, model.lon_e7, model.alt_cm) == (s.lat_e7, s.lon_e7, s.alt_cm)

@@ -15,7 +15,7 @@ from sim_harness.peers import TopsidePilot
 from tests.whole_loop.dives import (
     LANE_SPEED_M_S,
     MID_LANE_S,
-    MIN_CLEARANCE_M,
+    MIN_ALTITUDE_M,
     assert_own_stop,
     assert_safe,
     dive,
@@ -77,7 +77,7 @@ def test_companion_killed_mid_pass_vehicle_stops_on_its_own(tmp_path):
     assert drift < 0.1
     travelled = math.hypot(held[0].north_m - at_death.north_m, held[0].east_m - at_death.east_m)
     assert travelled < LANE_SPEED_M_S * 3.5 + 0.3  # the lane speed until the timeout, then braking
-    assert min(h.altitude_m for h in after) >= MIN_CLEARANCE_M
+    assert min(h.altitude_m for h in after) >= MIN_ALTITUDE_M
 
 
 @pytest.mark.slow
