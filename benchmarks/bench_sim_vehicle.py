@@ -13,7 +13,7 @@ import socket
 import time
 from typing import Any
 
-from sim_harness.autopilot.autopilot import Mode
+from sim_harness.autopilot.autopilot import AutopilotConfig, Mode
 from sim_harness.simulator import VehicleConfig, VehicleSimulator
 
 SIM_SECONDS = 120.0
@@ -36,7 +36,8 @@ def _run(render: bool) -> tuple[float, float, int, int]:
                 return pose, None
 
         renderer = _PoseOnly()
-    sim = VehicleSimulator(world, config=VehicleConfig(start_depth_m=5.0),
+    no_joystick = AutopilotConfig(params={"FS_PILOT_INPUT": 0})  # a bench: the pilot-input failsafe off
+    sim = VehicleSimulator(world, config=VehicleConfig(start_depth_m=5.0, autopilot=no_joystick),
                            listen="udp:127.0.0.1:0", sonar_renderer=renderer,
                            pose_factory=None if render else dict)
     gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)

@@ -48,7 +48,13 @@ class SonarSettings:
 
 @dataclass(frozen=True)
 class VehicleSettings:
-    """The ROV: speed, turning, depth limit, clearance and mount tilt limits."""
+    """The ROV: speed, turning, depth limit, clearance and mount tilt limits.
+
+    ``depth_hold_m`` is how closely the vehicle holds a commanded depth (its depth
+    controller's error in waves and turns, m): the planner keeps the lower pass this far
+    above the lowest allowed altitude (:attr:`Settings.min_altitude_m`), so holding the
+    pass never takes it below the clearance.
+    """
 
     speed_m_s: float
     turn_radius_m: float
@@ -58,6 +64,7 @@ class VehicleSettings:
     min_clearance_m: float
     tilt_min_rad: float
     tilt_max_rad: float
+    depth_hold_m: float = 0.05
 
 
 @dataclass(frozen=True)
@@ -173,9 +180,10 @@ def _vehicle(t: _Table) -> VehicleSettings:
     tilt_max = t.number("tilt_max_deg", lo=-90.0, hi=90.0, default=60.0)
     if tilt_max <= tilt_min:
         raise t.error("tilt_max_deg", f"must exceed tilt_min_deg ({tilt_min:g}), got {tilt_max:g}")
+    hold = t.number("depth_hold_m", lo=0.0, hi=10.0, default=0.05)
     t.finish()
     return VehicleSettings(speed, radius, yaw_rate, max_depth, min_depth, clearance,
-                           math.radians(tilt_min), math.radians(tilt_max))
+                           math.radians(tilt_min), math.radians(tilt_max), hold)
 
 
 def _site(t: _Table) -> SiteSettings:

@@ -36,12 +36,15 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim_harness.autopilot.autopilot import Autopilot, AutopilotConfig
 from sim_harness.autopilot.mavlink_endpoint import MavlinkPort, open_transport
 from sim_harness.clock import SimClock
 from sim_harness.errors import ClockStopped, SimConfigError
 from sim_harness.faults import FaultConfig
+from sim_harness.peers import BlueOsServices, LocalPeer, PeerConfig
+from sim_harness.simulated_sonar import SimulatedSonar, SonarRendererLike, default_pose_factory
 from sim_harness.vehicle.dynamics import (
     AttitudeDisturbance,
     MountMechanics,
@@ -69,14 +72,6 @@ class CurrentField(Protocol):
         ...
 
 
-class SonarRendererLike(Protocol):
-    """What the simulator needs from ``sim_harness.sonar.renderer.SonarRenderer``."""
-
-    def render(self, pose: Any, timestamp_s: float) -> tuple[Any, Any]:
-        """Render (SonarFrame, FrameTruth) for a sonar pose at a time."""
-        ...
-
-
 @dataclass(frozen=True)
 class VehicleConfig:
     """Everything about the simulated vehicle except the world, faults and socket."""
@@ -97,6 +92,9 @@ class VehicleConfig:
     truth_log_length: int = 100_000
     keep_label_images: bool = False  # keep each sonar frame's label images in the truth log
     seed: int = 0
+    #: Other systems on the vehicle's MAVLink network (:mod:`sim_harness.peers`): by
+    #: default BlueOS's own services, heartbeating as system 1.
+    peers: tuple[PeerConfig, ...] = (BlueOsServices(),)
 
     def __post_init__(self) -> None:
         if not 0.0 < self.step_s <= 0.1:
@@ -126,95 +124,6 @@ class VehicleTruth:
     yaw_rate_rad_s: float
     armed: bool
     mode: int
-
-
-def default_pose_factory(**fields: float) -> Any:
-    """Build a ``sim_harness.sonar.renderer.SonarPose`` (imported on first use)."""
-    from sim_harness.sonar.renderer import SonarPose  # the renderer's module; optional at import time
-
-    return SonarPose(**fields)
-
-
-class SimulatedSonar:
-    """The forward-looking sonar on the tilt mount, as a sonar source.
-
-    The simulator records the true sonar pose at each frame time; :meth:`poll` renders the
-    frames due by ``now_s`` in the caller's thread (so rendering cost never slows the
-    simulated vehicle) and returns them oldest first, exactly what a sonar driver's
-    ``poll(now_s)`` would give. Up to ``max_pending`` frames are buffered; older ones are
-    lost (counted in ``frames_overrun``), as with a real driver's buffer.
-    """
-
-    def __init__(
-        self,
-        renderer: SonarRendererLike,
-        *,
-        frame_rate_hz: float,
-        pose_factory: Callable[..., Any],
-        faults: FaultConfig,
-        rng: np.random.Generator,
-        max_pending: int,
-        on_truth: Callable[[float, Any], None],
-    ) -> None:
-        self._renderer = renderer
-        self.frame_interval_s = 1.0 / frame_rate_hz
-        self._pose_factory = pose_factory
-        self._faults = faults
-        self._rng = rng
-        self._pending: collections.deque[
-            tuple[float, dict[str, float], dict[str, float]]
-        ] = collections.deque()
-        self._max_pending = max_pending
-        self._lock = threading.Lock()
-        self._next_s: float | None = None
-        self._on_truth = on_truth
-        self.frames_dropped = 0
-        self.frames_overrun = 0
-        self.frames_delivered = 0
-
-    def capture(
-        self, t_s: float, pose_fields: dict[str, float], known_fields: dict[str, float]
-    ) -> None:
-        """Simulator side: record a frame if one is due at ``t_s``.
-
-        ``pose_fields`` is the true sonar pose (for the renderer); ``known_fields`` is what
-        the vehicle knows at the ping (its estimates), which the delivered frame carries.
-        """
-        if self._next_s is None:
-            self._next_s = t_s
-        if t_s + 1e-9 < self._next_s:
-            return
-        self._next_s += self.frame_interval_s
-        if self._faults.sonar_drop and self._rng.random() < self._faults.sonar_drop:
-            self.frames_dropped += 1
-            return
-        with self._lock:
-            self._pending.append((t_s, pose_fields, known_fields))
-            while len(self._pending) > self._max_pending:
-                self._pending.popleft()
-                self.frames_overrun += 1
-
-    def poll(self, now_s: float) -> list[Any]:
-        """Frames pinged at or before ``now_s`` not yet returned, oldest first."""
-        with self._lock:
-            due = []
-            while self._pending and self._pending[0][0] <= now_s + 1e-9:
-                due.append(self._pending.popleft())
-        frames = []
-        for t_s, pose_fields, known_fields in due:
-            frame, truth = self._renderer.render(self._pose_factory(**pose_fields), t_s)
-            self._on_truth(t_s, truth)
-            frames.append(_stamp_known(frame, known_fields))
-        self.frames_delivered += len(frames)
-        return frames
-
-
-def _stamp_known(frame: Any, known: dict[str, float]) -> Any:
-    """Replace the pose a rendered frame carries by what the vehicle knew (never truth)."""
-    if not dataclasses.is_dataclass(frame) or isinstance(frame, type):
-        return frame
-    names = {f.name for f in dataclasses.fields(frame)}
-    return dataclasses.replace(frame, **{k: v for k, v in known.items() if k in names})
 
 
 class VehicleSimulator:
@@ -286,6 +195,9 @@ class VehicleSimulator:
                 open_transport(listen), self.faults, system_id=cfg.autopilot.system_id,
                 component_id=cfg.autopilot.component_id,
             )
+        self._peers = [LocalPeer(peer) for peer in cfg.peers]
+        self._peer_parser = mavlink.MAVLink(None)
+        self._peer_parser.robust_parsing = True
         self.sonar: SimulatedSonar | None = None
         if sonar_renderer is not None:
             self.sonar = SimulatedSonar(
@@ -337,12 +249,13 @@ class VehicleSimulator:
                 replies.extend(ap.handle(msg, t))
             if replies:
                 self.port.send(replies, t)
+        self._serve_peers(t)
         north, east, down = self._state[0], self._state[1], self._state[2]
         attitude = cfg.disturbance.attitude(t, self._pitch_surge_n, self._pitch_surge_rate_n_s)
         readings = self.sensors.sample(t, self._state, attitude)
         if self.sonar is not None:
             self._capture_sonar(t, attitude, readings)
-        thrust, mount_target, out = ap.update(t, dt, readings, self._tilt_rad)
+        thrust, servo_tilt, out = ap.update(t, dt, readings)
         if self.port is not None:
             self.port.send(out, t)
         self._thrust = (thrust[0], thrust[1], thrust[2], thrust[3])
@@ -354,7 +267,9 @@ class VehicleSimulator:
         if state[2] < 0.0:  # the surface: the vehicle cannot fly out of the water
             state = (*state[:2], 0.0, state[3], state[4], state[5], min(state[6], 0.0), state[7])
         self._state = state
-        self._tilt_rad = slew_tilt(self._tilt_rad, mount_target, dt, cfg.mount)
+        # The tilt servo (its own slew rate and limits) follows the autopilot's output, a
+        # body-frame angle: for a stabilised mount the earth-frame target less the pitch.
+        self._tilt_rad = slew_tilt(self._tilt_rad, servo_tilt, dt, cfg.mount)
         self._step_index += 1
         t_next = self._t0 + self._step_index * dt
         self._update_truth(t_next, cfg.disturbance.attitude(t_next, self._pitch_surge_n, self._pitch_surge_rate_n_s))
@@ -403,6 +318,21 @@ class VehicleSimulator:
         self.stop()
 
     # ------------------------------------------------------------------ internals
+    def _serve_peers(self, t_s: float) -> None:
+        """Deliver the peers' messages to the autopilot and out of the socket, as the
+        vehicle's MAVLink router would; the autopilot's answers go out of the socket."""
+        ap = self.autopilot
+        for peer in self._peers:
+            for msg in peer.messages(t_s):
+                data = peer.pack(msg)
+                replies = []
+                for parsed in self._peer_parser.parse_buffer(data) or ():
+                    replies.extend(ap.handle(parsed, t_s))
+                if self.port is not None:
+                    self.port.send_raw(data, t_s)
+                    if replies:
+                        self.port.send(replies, t_s)
+
     def _update_truth(self, t_s: float, attitude: tuple[float, float, float, float]) -> None:
         n, e, d, yaw, u, v, w, r = self._state
         truth = VehicleTruth(

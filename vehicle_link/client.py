@@ -1,17 +1,20 @@
 """ArduSubClient: the companion-computer side of a MAVLink 2 link to ArduSub 4.5.
 
-Everything ArduSub-specific sits here: modes, arming, depth/altitude targets with their
-safety checks, the sonar mount, our altimeter feed, missions with ArduPilot's home slot.
-The link itself (I/O thread, clock, heartbeats, link health, COMMAND_ACK handling) is
-:class:`vehicle_link.link.VehicleLink`; its threading notes apply here.
+Everything ArduSub-specific sits here: modes, arming (the force magics 2989 / 21196),
+depth, position and position+velocity targets with their safety checks, the sonar mount
+and the frame its angles are in, the EKF origin and home, our altimeter feed. Missions
+are :class:`vehicle_link.missions.MissionLink`, the request protocols
+:class:`vehicle_link.link.VehicleLink`, the I/O :class:`vehicle_link.link_core.LinkCore`
+(its threading notes apply here).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
-from vehicle_link import commands, mission_io, units
+from vehicle_link import commands, units
 from vehicle_link.dialect import mavlink2
 from vehicle_link.errors import (
     CommandRejected,
@@ -23,36 +26,36 @@ from vehicle_link.errors import (
     StaleTelemetry,
     StateChangeTimeout,
 )
-from vehicle_link.link import LinkHealth, LinkStats, VehicleLink, result_name
-from vehicle_link.mission import (
-    MAV_MISSION_TYPE_MISSION,
-    MissionItem,
-    ardupilot_wire_items,
-    verify_items,
-)
+from vehicle_link.link import LinkHealth, LinkStats, result_name
+from vehicle_link.missions import MissionLink
 from vehicle_link.modes import SubMode, parse_mode
 from vehicle_link.telemetry import (
     Attitude,
+    GlobalOrigin,
     GlobalPosition,
     Heartbeat,
+    HomePosition,
     LocalPositionNed,
-    MissionCurrent,
     Pressure,
     Rangefinder,
 )
 
-__all__ = ["AltitudeTargetResult", "ArduSubClient", "LinkHealth", "LinkStats", "result_name"]
+__all__ = ["AltitudeTargetResult", "ArduSubClient", "LinkHealth", "LinkStats", "MOUNT_FRAMES", "result_name"]
 
 OWN_ALTIMETER_SOURCE = "OWN_ALTIMETER"
+#: The frame each ArduSub mount type's angles are in (AP_Mount.cpp ``init``): type 1, a
+#: servo, is stabilised by the autopilot (earth frame: it takes the vehicle's pitch out);
+#: type 7, brushless PWM, outputs the angle as it is (body frame on a plain tilt servo).
+MOUNT_FRAMES = {1: "earth", 7: "body"}
 
 
 @dataclass(frozen=True)
 class AltitudeTargetResult:
     """How an altitude-above-seabed target was sent.
 
-    ``method`` is ``"terrain_frame"`` (the firmware tracks the altitude itself) or
-    ``"derived_depth"`` (a depth target computed from the measured altitude, which must
-    be re-sent as the seabed changes).
+    ``method`` is ``"derived_depth"``: a depth target computed from the measured altitude,
+    to be re-sent as the seabed changes (ArduSub 4.5 drops terrain-frame GUIDED targets:
+    it has no terrain database on a sub).
     """
 
     method: str
@@ -62,7 +65,7 @@ class AltitudeTargetResult:
     measured_depth_m: float | None
 
 
-class ArduSubClient(VehicleLink):
+class ArduSubClient(MissionLink):
     """MAVLink 2 client for ArduSub 4.5 on the companion computer.
 
     Same constructor as :class:`~vehicle_link.link.VehicleLink`:
@@ -127,40 +130,49 @@ class ArduSubClient(VehicleLink):
 
     def arm(self, *, force: bool = False, confirm: bool = True) -> None:
         """Arm; with ``confirm`` wait for a heartbeat showing it armed."""
-        self.send_command(commands.arm_disarm(True, force=force))
-        if confirm and not self._wait_until(
-            lambda: self._hb_armed() is True, self.config.state_confirm_timeout_s
-        ):
-            raise StateChangeTimeout("armed", self.config.state_confirm_timeout_s)
+        self._command_with_effect(commands.arm_disarm(True, force=force), lambda: self._hb_armed() is True,
+                                  "armed", confirm)
 
     def disarm(self, *, force: bool = False, confirm: bool = True) -> None:
         """Disarm; with ``confirm`` wait for a heartbeat showing it disarmed."""
-        self.send_command(commands.arm_disarm(False, force=force))
-        if confirm and not self._wait_until(
-            lambda: self._hb_armed() is False, self.config.state_confirm_timeout_s
-        ):
-            raise StateChangeTimeout("disarmed", self.config.state_confirm_timeout_s)
+        self._command_with_effect(commands.arm_disarm(False, force=force), lambda: self._hb_armed() is False,
+                                  "disarmed", confirm)
 
     def _hb_armed(self) -> bool | None:
         record = self._store.get("Heartbeat")
         return record.armed if isinstance(record, Heartbeat) else None
 
+    def _command_with_effect(self, spec: commands.CommandSpec, done: Callable[[], bool], what: str,
+                             confirm: bool) -> None:
+        """Send ``spec`` and, with ``confirm``, wait for a heartbeat showing ``done``. An
+        unanswered command whose effect a heartbeat shows counts as done (its ACK was lost:
+        on a lossy tether the heartbeat is the better witness)."""
+        timeout_s = self.config.state_confirm_timeout_s
+        try:
+            self.send_command(spec)
+        except CommandTimeout:
+            if not self._wait_until(done, timeout_s):
+                raise
+            return
+        if confirm and not self._wait_until(done, timeout_s):
+            raise StateChangeTimeout(what, timeout_s)
+
     def set_mode(self, mode: SubMode | int | str, *, confirm: bool = True) -> SubMode:
         """Set an ArduSub mode by number or name (SURFTRAK = 21 included).
 
-        With ``confirm``, waits for a heartbeat in the new mode; the sonar mount target
-        (if any) is re-sent by the I/O thread when the mode change is seen.
+        With ``confirm``, waits for a heartbeat in the new mode (ArduSub 4.5 sends one at
+        once on a mode change). Nothing is re-sent on the link's own initiative.
         """
         target_mode = parse_mode(mode)
-        self.send_command(commands.set_mode(target_mode))
-        if confirm:
 
-            def in_mode() -> bool:
-                record = self._store.get("Heartbeat")
-                return isinstance(record, Heartbeat) and record.custom_mode == int(target_mode)
+        def in_mode() -> bool:
+            record = self._store.get("Heartbeat")
+            return isinstance(record, Heartbeat) and record.custom_mode == int(target_mode)
 
-            if not self._wait_until(in_mode, self.config.state_confirm_timeout_s):
-                raise ModeChangeTimeout(int(target_mode), self.config.state_confirm_timeout_s)
+        try:
+            self._command_with_effect(commands.set_mode(target_mode), in_mode, "mode", confirm)
+        except StateChangeTimeout as exc:
+            raise ModeChangeTimeout(int(target_mode), exc.timeout_s) from exc
         return target_mode
 
     def _check_depth(self, depth_m: float) -> None:
@@ -218,13 +230,31 @@ class ArduSubClient(VehicleLink):
             )
         )
 
+    def goto_posvel(self, north_m: float, east_m: float, depth_m: float, vel_north_m_s: float,
+                    vel_east_m_s: float, vel_down_m_s: float = 0.0, *, yaw_rad: float | None = None) -> None:
+        """GUIDED position + velocity target (Guided_PosVel, NED about the EKF origin).
+
+        ArduSub moves the position on by the velocity and, 3 s after the last one, zeroes
+        the velocity and holds where it got to: stream these along a path and the vehicle
+        stops on its own when the stream does.
+        """
+        self._check_depth(depth_m)
+        if self.mode != SubMode.GUIDED:
+            raise ModeError("a position target", self.mode, ("GUIDED",))
+        for name, value in (("vel_north_m_s", vel_north_m_s), ("vel_east_m_s", vel_east_m_s),
+                            ("vel_down_m_s", vel_down_m_s)):
+            if not math.isfinite(value):
+                raise SafetyLimitError(name, value, 0.0, "velocity is not finite")
+        self._send(commands.position_velocity_target_local_ned(
+            north_m, east_m, depth_m, vel_north_m_s, vel_east_m_s, vel_down_m_s, self._target(),
+            self.config.target_component, self._time_boot_ms(), yaw_rad=yaw_rad))
+
     def set_altitude_target(self, altitude_m: float) -> AltitudeTargetResult:
         """Hold a height above the seabed (m).
 
-        Checked against ``min_clearance_m`` before anything is sent. With
-        ``config.terrain_frame`` and GUIDED, sends a terrain-frame target; otherwise sends
-        the depth target ``depth + (altitude - altitude_target)`` from the latest altimeter
-        reading (checked against the depth limit too).
+        Checked against ``min_clearance_m`` before anything is sent; sends the depth target
+        ``depth + (altitude - altitude_target)`` from the latest altimeter reading (checked
+        against the depth limit too).
         """
         clearance = self.config.min_clearance_m
         if not altitude_m >= 0.0:
@@ -235,19 +265,6 @@ class ArduSubClient(VehicleLink):
             raise SafetyLimitError(
                 "altitude_m", altitude_m, clearance, "below the minimum clearance"
             )
-        if self.config.terrain_frame and self.mode == SubMode.GUIDED:
-            pos = self._fresh(GlobalPosition, "GLOBAL_POSITION_INT")
-            self._send(
-                commands.terrain_altitude_target_global_int(
-                    pos.latitude_deg,
-                    pos.longitude_deg,
-                    altitude_m,
-                    self._target(),
-                    self.config.target_component,
-                    self._time_boot_ms(),
-                )
-            )
-            return AltitudeTargetResult("terrain_frame", altitude_m, None, None, None)
         measured_alt = self.current_altitude_m()
         depth_now = self.current_depth_m()
         depth_target = depth_now + (measured_alt - altitude_m)
@@ -266,19 +283,67 @@ class ArduSubClient(VehicleLink):
     def set_mount_tilt(self, tilt_rad: float, *, wait_ack: bool = True) -> None:
         """Point the sonar mount ``tilt_rad`` down.
 
-        With ``wait_ack`` (default) the COMMAND_ACK is awaited with the usual retries. A
-        control loop that re-sends the tilt every cycle passes ``wait_ack=False``: the
-        command goes out once and the loop is never held up by a lost ack (the next cycle
-        sends it again). The tilt is remembered and re-sent after every mode change the
-        heartbeat shows, because ArduSub puts the mount back to its default mode (RC
-        targeting) when it leaves AUTO.
+        The angle is in the frame of the vehicle's mount (:meth:`mount_frame`): earth
+        frame for ArduSub's default stabilised servo mount. With ``wait_ack`` (default) the
+        COMMAND_ACK is awaited with the usual retries; a control loop that re-sends the tilt
+        every cycle passes ``wait_ack=False`` (sent once; the next cycle sends it again).
+        Nothing is re-sent on the link's own initiative: after a mode change ArduSub 4.5
+        puts the mount into RC targeting, which holds the last angle (``Sub::exit_mode``).
         """
         spec = self._mount_spec(tilt_rad)
-        self._set_sticky_command(spec)
         if wait_ack:
             self.send_command(spec)
         else:
             self._send(commands.command_long(spec, self._target(), self.config.target_component, 0))
+
+    def mount_frame(self) -> str | None:
+        """"earth" or "body": the frame the mount's angles are in, from MNT1_TYPE
+        (:data:`MOUNT_FRAMES`); None for a type with no known frame (0: no mount)."""
+        return MOUNT_FRAMES.get(int(self.get_parameter("MNT1_TYPE").value))
+
+    def ekf_origin(self, *, timeout_s: float | None = None) -> GlobalOrigin | None:
+        """The EKF origin (REQUEST_MESSAGE GPS_GLOBAL_ORIGIN); None if the vehicle has none
+        (it acknowledges and sends nothing)."""
+        start = self._clock.now_s()
+        self.request_message(mavlink2.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN)
+        found = self.wait_for_record(lambda r: isinstance(r, GlobalOrigin) and r.time_s >= start,
+                                     self.config.command_timeout_s if timeout_s is None else timeout_s)
+        return found if isinstance(found, GlobalOrigin) else None
+
+    def set_ekf_origin(self, latitude_deg: float, longitude_deg: float, altitude_m: float = 0.0, *,
+                       timeout_s: float | None = None) -> GlobalOrigin:
+        """SET_GPS_GLOBAL_ORIGIN (as the BlueOS DVL extension does, altitude 0 = the surface),
+        confirmed by GPS_GLOBAL_ORIGIN. ArduSub ignores it when it already has an origin:
+        the origin returned is the vehicle's, whatever was asked.
+
+        Raises
+        ------
+        CommandTimeout
+            No GPS_GLOBAL_ORIGIN after the bounded retries.
+        """
+        timeout = self.config.command_timeout_s if timeout_s is None else timeout_s
+        for _ in range(self.config.command_attempts):
+            start = self._clock.now_s()
+            self._send(commands.set_gps_global_origin(latitude_deg, longitude_deg, altitude_m, self._target()))
+            found = self.wait_for_record(lambda r, t=start: isinstance(r, GlobalOrigin) and r.time_s >= t, timeout)
+            if isinstance(found, GlobalOrigin):
+                return found
+            existing = self.ekf_origin(timeout_s=timeout)
+            if existing is not None:
+                return existing
+        raise CommandTimeout(mavlink2.MAVLINK_MSG_ID_SET_GPS_GLOBAL_ORIGIN, "SET_GPS_GLOBAL_ORIGIN",
+                             self.config.command_attempts, timeout)
+
+    def home_position(self, *, timeout_s: float | None = None) -> HomePosition | None:
+        """Home (MAV_CMD_GET_HOME_POSITION); None when ArduSub has none yet (FAILED)."""
+        start = self._clock.now_s()
+        try:
+            self.send_command(commands.get_home_position())
+        except CommandRejected:
+            return None
+        found = self.wait_for_record(lambda r: isinstance(r, HomePosition) and r.time_s >= start,
+                                     self.config.command_timeout_s if timeout_s is None else timeout_s)
+        return found if isinstance(found, HomePosition) else None
 
     def send_altimeter_range(
         self, range_m: float, *, signal_quality_pct: int | None = None
@@ -314,87 +379,3 @@ class ArduSubClient(VehicleLink):
                 feed.min_range_m <= range_m <= feed.max_range_m,
             )
         )
-
-    # ---- mission -----------------------------------------------------------------------
-
-    def _mission_kwargs(self) -> dict[str, int | float]:
-        return {
-            "target_system": self._target(),
-            "target_component": self.config.target_component,
-            "mission_type": MAV_MISSION_TYPE_MISSION,
-            "item_timeout_s": self.config.mission_item_timeout_s,
-            "retries": self.config.mission_retries,
-        }
-
-    def upload_mission(
-        self, items: Sequence[MissionItem], *, verify: bool = True, home_slot: bool = True
-    ) -> list[MissionItem]:
-        """Upload a mission; return the wire list (home placeholder first when ``home_slot``).
-
-        With ``verify`` the mission is downloaded again and compared item by item.
-
-        Raises
-        ------
-        MissionError
-            The vehicle refused (``.result`` holds the MAV_MISSION_RESULT).
-        MissionTimeout
-            The transfer stalled after every retry.
-        MissionVerifyError
-            The mission read back differs.
-        """
-        wire = ardupilot_wire_items(items) if home_slot else list(items)
-        with self.mission_channel() as channel:
-            mission_io.upload(channel, wire, **self._mission_kwargs())  # type: ignore[arg-type]
-        if verify:
-            verify_items(wire, self.download_mission(home_slot=False), skip_home=home_slot)
-        return wire
-
-    def download_mission(self, *, home_slot: bool = True) -> list[MissionItem]:
-        """Download the mission; with ``home_slot`` item 0 (ArduPilot's home) is dropped."""
-        with self.mission_channel() as channel:
-            items = mission_io.download(channel, **self._mission_kwargs())  # type: ignore[arg-type]
-        return items[1:] if home_slot and items else items
-
-    def clear_mission(self) -> None:
-        """MISSION_CLEAR_ALL, waiting for MISSION_ACK (retried on silence)."""
-        with self.mission_channel() as channel:
-            mission_io.clear_all(channel, **self._mission_kwargs())  # type: ignore[arg-type]
-
-    def set_mission_current(self, seq: int) -> None:
-        """Make item ``seq`` current.
-
-        Sends MAV_CMD_DO_SET_MISSION_CURRENT (acknowledged); if the firmware answers
-        UNSUPPORTED, falls back to the older MISSION_SET_CURRENT message and waits for a
-        MISSION_CURRENT showing ``seq``.
-        """
-        try:
-            self.send_command(commands.set_mission_current(seq))
-            return
-        except CommandRejected as exc:
-            if exc.result != mavlink2.MAV_RESULT_UNSUPPORTED:
-                raise
-        target = self._target()
-        for _ in range(self.config.command_attempts):
-            self._send(
-                mavlink2.MAVLink_mission_set_current_message(
-                    target, self.config.target_component, seq
-                )
-            )
-            if self._wait_until(
-                lambda: (
-                    isinstance(current := self._store.get("MissionCurrent"), MissionCurrent)
-                    and current.seq == seq
-                ),
-                self.config.command_timeout_s,
-            ):
-                return
-        raise CommandTimeout(
-            mavlink2.MAVLINK_MSG_ID_MISSION_SET_CURRENT,
-            "MISSION_SET_CURRENT",
-            self.config.command_attempts,
-            self.config.command_timeout_s,
-        )
-
-    def start_mission(self) -> None:
-        """MAV_CMD_MISSION_START (ArduSub: must be armed; switches to AUTO)."""
-        self.send_command(commands.mission_start())

@@ -42,10 +42,17 @@ TYPE_MASK_DEPTH_ONLY = (
 TYPE_MASK_POSITION = _VEL_IGNORE | _ACC_IGNORE | _YAW_IGNORE
 #: Position and yaw.
 TYPE_MASK_POSITION_YAW = _VEL_IGNORE | _ACC_IGNORE | TYPE_MASK_YAW_RATE_IGNORE
-#: Position and velocity (ArduSub needs the velocity for terrain-frame targets).
+#: Position and velocity (GUIDED's Guided_PosVel): the position target advances with the
+#: velocity, and 3 s without a new one the velocity is zeroed and the position held
+#: (ArduSub 4.5 mode_guided.cpp GUIDED_POSVEL_TIMEOUT_MS).
 TYPE_MASK_POSITION_VELOCITY = _ACC_IGNORE | _YAW_IGNORE
+#: Position, velocity and yaw.
+TYPE_MASK_POSITION_VELOCITY_YAW = _ACC_IGNORE | TYPE_MASK_YAW_RATE_IGNORE
 
-ARM_FORCE_MAGIC = 21196  # param2 of COMPONENT_ARM_DISARM that bypasses the arming checks
+#: param2 of COMPONENT_ARM_DISARM that skips the pre-arm checks when arming (GCS.h
+#: ``magic_force_arm_value``) and forces a disarm (``magic_force_disarm_value``).
+ARM_FORCE_MAGIC = 2989
+DISARM_FORCE_MAGIC = 21196
 MAV_COMP_ID_ONBOARD_COMPUTER = 191
 MAV_COMP_ID_AUTOPILOT1 = 1
 
@@ -70,12 +77,10 @@ def _spec(command: int, *params: float) -> CommandSpec:
 
 
 def arm_disarm(arm: bool, *, force: bool = False) -> CommandSpec:
-    """MAV_CMD_COMPONENT_ARM_DISARM; ``force`` bypasses checks (21196) - use with care."""
-    return _spec(
-        mavlink2.MAV_CMD_COMPONENT_ARM_DISARM,
-        1.0 if arm else 0.0,
-        float(ARM_FORCE_MAGIC) if force else 0.0,
-    )
+    """MAV_CMD_COMPONENT_ARM_DISARM; ``force`` skips the pre-arm checks (2989) or forces a
+    disarm (21196) - use with care."""
+    magic = ARM_FORCE_MAGIC if arm else DISARM_FORCE_MAGIC
+    return _spec(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, 1.0 if arm else 0.0, float(magic) if force else 0.0)
 
 
 def set_mode(mode: SubMode | int) -> CommandSpec:
@@ -257,37 +262,71 @@ def position_target_local_ned(
     )
 
 
-def terrain_altitude_target_global_int(
-    latitude_deg: float,
-    longitude_deg: float,
-    altitude_m: float,
+def position_velocity_target_local_ned(
+    north_m: float,
+    east_m: float,
+    depth_m: float,
+    vel_north_m_s: float,
+    vel_east_m_s: float,
+    vel_down_m_s: float,
     target_system: int,
     target_component: int,
     time_boot_ms: int,
-) -> mavlink2.MAVLink_set_position_target_global_int_message:
-    """GUIDED altitude-above-seabed target in MAV_FRAME_GLOBAL_TERRAIN_ALT_INT.
+    *,
+    yaw_rad: float | None = None,
+) -> mavlink2.MAVLink_set_position_target_local_ned_message:
+    """GUIDED position + velocity target (Guided_PosVel) about the EKF origin, NED.
 
-    ArduSub after 4.5 reads ``alt`` as the rangefinder target in this frame and needs the
-    velocity fields (zero here: hold the position); ArduSub 4.5 ignores the message.
+    ArduSub 4.5 integrates the position by the velocity and zeroes the velocity 3 s after
+    the last such message, holding the position it got to: a stream of these moving
+    along a lane never restarts an S-curve, and stops the vehicle on its own when the
+    stream stops.
     """
-    return mavlink2.MAVLink_set_position_target_global_int_message(
+    mask = TYPE_MASK_POSITION_VELOCITY if yaw_rad is None else TYPE_MASK_POSITION_VELOCITY_YAW
+    return mavlink2.MAVLink_set_position_target_local_ned_message(
         time_boot_ms & 0xFFFFFFFF,
         target_system,
         target_component,
-        mavlink2.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
-        TYPE_MASK_POSITION_VELOCITY,
-        units.deg_to_dege7(latitude_deg),
-        units.deg_to_dege7(longitude_deg),
-        altitude_m,
+        mavlink2.MAV_FRAME_LOCAL_NED,
+        mask,
+        north_m,
+        east_m,
+        depth_m,
+        vel_north_m_s,
+        vel_east_m_s,
+        vel_down_m_s,
         0.0,
         0.0,
         0.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
+        0.0 if yaw_rad is None else yaw_rad,
         0.0,
     )
+
+
+def set_gps_global_origin(
+    latitude_deg: float, longitude_deg: float, altitude_m: float, target_system: int
+) -> mavlink2.MAVLink_set_gps_global_origin_message:
+    """SET_GPS_GLOBAL_ORIGIN: ArduSub sets its EKF origin once (later ones are ignored) and
+    answers with GPS_GLOBAL_ORIGIN (``GCS_MAVLINK::set_ekf_origin``); altitude in mm."""
+    return mavlink2.MAVLink_set_gps_global_origin_message(
+        target_system, units.deg_to_dege7(latitude_deg), units.deg_to_dege7(longitude_deg),
+        int(round(units.m_to_mm(altitude_m))), 0)
+
+
+def request_message(message_id: int) -> CommandSpec:
+    """MAV_CMD_REQUEST_MESSAGE (ArduSub: ACCEPTED even when it has nothing to send)."""
+    return _spec(mavlink2.MAV_CMD_REQUEST_MESSAGE, float(message_id))
+
+
+def get_home_position() -> CommandSpec:
+    """MAV_CMD_GET_HOME_POSITION (ArduSub: FAILED without a home)."""
+    return _spec(mavlink2.MAV_CMD_GET_HOME_POSITION)
+
+
+def gimbal_manager_pitch_deg(tilt_rad: float) -> float:
+    """The whole-degree pitch a DO_GIMBAL_MANAGER_PITCHYAW *mission item* carries (AP_Mission
+    stores it as int8 degrees, truncated toward zero)."""
+    return float(math.trunc(units.mount_pitch_deg_from_tilt_rad(tilt_rad)))
 
 
 def distance_sensor(

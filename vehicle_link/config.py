@@ -21,6 +21,7 @@ DEFAULT_MESSAGE_INTERVALS_S: tuple[tuple[str, float], ...] = (
     ("GIMBAL_DEVICE_ATTITUDE_STATUS", 0.1),
     ("MISSION_CURRENT", 1.0),
     ("SYS_STATUS", 1.0),
+    ("EKF_STATUS_REPORT", 0.5),
 )
 
 
@@ -56,7 +57,10 @@ class LinkConfig:
         pymavlink connection string: ``udpin:0.0.0.0:14770``, ``udpout:host:port``,
         ``tcp:host:port``, or a serial device ``/dev/ttyACM0`` (baud from ``baud``).
     source_system, source_component : int
-        Our ids; component 191 = MAV_COMP_ID_ONBOARD_COMPUTER.
+        Our ids. On BlueOS use the vehicle's system (1) and a component of 191-193
+        (MAV_COMP_ID_ONBOARD_COMPUTER..3): 194 is mavlink2rest's, 100-105 the camera
+        manager's. Never SYSID_MYGCS's system id: the vehicle would take our heartbeats
+        for the topside's.
     target_system : int or None
         The vehicle's system id; None locks onto the first submarine heartbeat.
     target_component : int
@@ -91,9 +95,6 @@ class LinkConfig:
         ``"mount_control"`` (MAV_CMD_DO_MOUNT_CONTROL, degrees, ArduSub 4.3+) or
         ``"gimbal_manager"`` (MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW), or
         ``"mount_control_centidegrees"`` (DO_MOUNT_CONTROL for firmware before 4.3).
-    terrain_frame : bool
-        True if the firmware takes GUIDED targets in MAV_FRAME_GLOBAL_TERRAIN_ALT_INT
-        (ArduSub after 4.5); False (4.5) derives a depth target from the altimeter.
     message_intervals_s : tuple of (str, float)
         Streams requested with MAV_CMD_SET_MESSAGE_INTERVAL after connecting.
     io_poll_s : float
@@ -125,7 +126,6 @@ class LinkConfig:
     tlog_path: str | None = None
     altimeter: AltimeterFeed | None = None
     mount_protocol: str = "mount_control"
-    terrain_frame: bool = False
     message_intervals_s: tuple[tuple[str, float], ...] = DEFAULT_MESSAGE_INTERVALS_S
     io_poll_s: float = 0.01
     water_density_kg_m3: float = 1025.0

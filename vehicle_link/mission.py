@@ -1,8 +1,7 @@
 """Mission items and the upload/download state machines of the MAVLink mission protocol.
 
-Everything here is pure: the state machines take the vehicle's messages as method calls
-and return the actions to perform (send this, done, failed); the client does the I/O.
-That is what lets the tests drive them with a fake transport.
+Pure: items, their wire form and what ArduSub stores of them; the transfer state
+machines are :mod:`vehicle_link.mission_protocol`.
 
 ArduPilot specifics handled here:
 
@@ -10,22 +9,26 @@ ArduPilot specifics handled here:
   home placeholder at 0 before the caller's items; ``verify_items`` skips it because the
   vehicle overwrites it with its real home.
 * ArduPilot re-requests an item it has not received after about 1 s, so the same item can
-  be requested twice; both MISSION_REQUEST and MISSION_REQUEST_INT are answered (always with
-  MISSION_ITEM_INT, as ArduPilot accepts it either way and it keeps 1e-7 degree precision).
-* When a duplicate item crosses a re-request ArduPilot answers MISSION_ACK with
-  MAV_MISSION_INVALID_SEQUENCE and carries on: that ack is ignored, not treated as failure.
+  be requested twice; ArduSub 4.5 asks with MISSION_REQUEST (not _INT,
+  ``MissionItemProtocol::queued_request_send``); both are answered with MISSION_ITEM_INT,
+  which keeps 1e-7 degree precision (MISSION_ITEM's float32 would not).
+* Verification compares what ArduSub *stores* (:func:`ardusub_stored`): the frame family
+  (it returns 3, never 6, and 10, never 11), whole centimetres of altitude, and only the
+  parameters it keeps (a NAV_WAYPOINT's acceptance radius is dropped on a sub).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
+
+import numpy as np
 
 from vehicle_link import units
 from vehicle_link.dialect import mavlink2
-from vehicle_link.errors import MissionError, MissionTimeout, MissionVerifyError
+from vehicle_link.errors import MissionVerifyError
 
 MAV_MISSION_TYPE_MISSION = 0
 MAV_MISSION_ACCEPTED = mavlink2.MAV_MISSION_ACCEPTED
@@ -165,33 +168,96 @@ def item_from_message(msg: Any) -> tuple[int, MissionItem]:
     return int(msg.seq), item
 
 
-def _close(a: float, b: float, tol: float) -> bool:
-    if math.isnan(a) or math.isnan(b):
-        return math.isnan(a) and math.isnan(b)
-    return abs(a - b) <= tol * max(1.0, abs(a), abs(b))
+#: Frame families AP_Mission stores (``mavlink_int_to_mission_cmd``) and returns
+#: (``mission_cmd_to_mavlink_int``): 0/2/5 absolute -> 0, 3/6 relative -> 3, 10/11
+#: terrain -> 10. The _INT frames are never returned.
+_FRAME_FAMILY = {
+    mavlink2.MAV_FRAME_GLOBAL: mavlink2.MAV_FRAME_GLOBAL,
+    mavlink2.MAV_FRAME_GLOBAL_INT: mavlink2.MAV_FRAME_GLOBAL,
+    mavlink2.MAV_FRAME_MISSION: mavlink2.MAV_FRAME_GLOBAL,
+    mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT: mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+    mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+    mavlink2.MAV_FRAME_GLOBAL_TERRAIN_ALT: mavlink2.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+    mavlink2.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: mavlink2.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+}
+
+
+@dataclass(frozen=True)
+class StoredItem:
+    """What ArduSub 4.5's AP_Mission keeps of an item: the comparison key of verification.
+
+    Location commands: the frame family, lat/lon in int32 1e-7 degrees and the altitude
+    in whole centimetres (``packet.z * 100.0f`` truncated toward zero). Parameters: only
+    those AP_Mission stores for the command on a sub, converted as it converts them
+    (NAV_WAYPOINT: param1 only, as a uint16 of whole seconds; the acceptance radius in
+    param2 is dropped). Other commands keep params 1-4 as float32. ``autocontinue`` is
+    not stored (always returned as 1).
+    """
+
+    command: int
+    frame: int
+    lat_e7: int
+    lon_e7: int
+    alt_cm: int
+    params: tuple[float, ...]
+
+
+def _f32(value: float) -> float:
+    return float(np.float32(value))
+
+
+def _c_int(value: float, lo: int, hi: int) -> int:
+    """C float-to-integer conversion: truncation toward zero, clamped; NaN -> 0."""
+    if not math.isfinite(value):
+        return 0
+    return int(min(max(math.trunc(value), lo), hi))
+
+
+def ardusub_stored(item: MissionItem, *, downloaded: bool = False) -> StoredItem:
+    """``item`` as ArduSub 4.5 stores it (libraries/AP_Mission/AP_Mission.cpp
+    ``mavlink_int_to_mission_cmd``): apply it to what was sent, and with ``downloaded`` to
+    what was read back, then compare. A download carries ``alt_cm * 0.01f``
+    (``mission_cmd_to_mavlink_int``), which is not always above the whole centimetre (99
+    cm comes back as 0.98999995 m), so a downloaded altitude is rounded, not truncated."""
+    p1, p2, p3, p4 = item.param1, item.param2, item.param3, item.param4
+    command = item.command
+    if item.frame in _FRAME_FAMILY:
+        cm = float(np.float32(item.altitude_m) * np.float32(100.0))
+        alt_cm = int(round(cm)) if downloaded and math.isfinite(cm) else _c_int(cm, -(2**31), 2**31 - 1)
+        lat, lon = units.deg_to_dege7(item.latitude_deg), units.deg_to_dege7(item.longitude_deg)
+        frame = _FRAME_FAMILY[item.frame]
+    else:
+        alt_cm, lat, lon, frame = 0, 0, 0, item.frame
+    if command == mavlink2.MAV_CMD_NAV_WAYPOINT:
+        params: tuple[float, ...] = (float(_c_int(p1, 0, 65535)),)
+    elif command == mavlink2.MAV_CMD_NAV_LOITER_TIME:
+        params = (float(_c_int(p1, 0, 65535)), -1.0 if p3 < 0 else 1.0, float(p4 > 0))
+    elif command == mavlink2.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW:
+        # int8 pitch, int16 yaw, int8 rates: whole degrees (AP_Mission.h gimbal_manager_pitchyaw_Command)
+        params = (float(_c_int(p1, -128, 127)), float(_c_int(p2, -32768, 32767)), float(_c_int(p3, -128, 127)),
+                  float(_c_int(p4, -128, 127)))
+        lat, lon, alt_cm, frame = 0, 0, 0, 0  # flags in x and the gimbal id in z, none here
+    else:
+        params = (_f32(p1), _f32(p2), _f32(p3), _f32(p4))
+    return StoredItem(command, frame, lat, lon, alt_cm, params)
 
 
 def items_match(sent: MissionItem, got: MissionItem) -> bool:
-    """True if ``got`` is ``sent`` after a round trip through float32/int32 fields."""
-    float32_tol = 1.0e-6
-    return (
-        sent.command == got.command
-        and sent.frame == got.frame
-        and sent.autocontinue == got.autocontinue
-        and abs(sent.latitude_deg - got.latitude_deg) <= 1.5e-7
-        and abs(sent.longitude_deg - got.longitude_deg) <= 1.5e-7
-        and _close(sent.altitude_m, got.altitude_m, float32_tol)
-        and all(
-            _close(getattr(sent, p), getattr(got, p), float32_tol)
-            for p in ("param1", "param2", "param3", "param4")
-        )
-    )
+    """True if ``got`` (read back) is what ArduSub stores of ``sent`` (see :func:`ardusub_stored`)."""
+    a, b = ardusub_stored(sent), ardusub_stored(got, downloaded=True)
+    def key(x: StoredItem) -> tuple[int, ...]:
+        return (x.command, x.frame, x.lat_e7, x.lon_e7, x.alt_cm)
+
+    same_place = key(a) == key(b)
+    return same_place and len(a.params) == len(b.params) and all(
+        x == y or (math.isnan(x) and math.isnan(y)) for x, y in zip(a.params, b.params, strict=True))
 
 
 def verify_items(
     sent: Sequence[MissionItem], got: Sequence[MissionItem], *, skip_home: bool = True
 ) -> None:
-    """Raise MissionVerifyError unless ``got`` equals ``sent`` (wire lists, home at 0)."""
+    """Raise MissionVerifyError unless ``got`` holds what ArduSub stores of ``sent`` (wire
+    lists, home at 0: skipped, the vehicle reports its own home there)."""
     if len(sent) != len(got):
         raise MissionVerifyError(f"vehicle holds {len(got)} items, {len(sent)} were uploaded", -1)
     for seq, (a, b) in enumerate(zip(sent, got, strict=True)):
@@ -199,185 +265,6 @@ def verify_items(
             continue
         if not items_match(a, b):
             raise MissionVerifyError(
-                f"item {seq} differs after upload: sent {a}, read back {b}", seq
+                f"item {seq} differs after upload: sent {ardusub_stored(a)}, read back "
+                f"{ardusub_stored(b, downloaded=True)}", seq
             )
-
-
-# ---- actions the state machines ask for -------------------------------------------------
-
-
-@dataclass(frozen=True)
-class SendCount:
-    """Send MISSION_COUNT."""
-
-    count: int
-
-
-@dataclass(frozen=True)
-class SendItem:
-    """Send MISSION_ITEM_INT for ``seq``."""
-
-    seq: int
-    item: MissionItem
-
-
-@dataclass(frozen=True)
-class SendRequestList:
-    """Send MISSION_REQUEST_LIST."""
-
-
-@dataclass(frozen=True)
-class SendRequest:
-    """Send MISSION_REQUEST_INT for ``seq``."""
-
-    seq: int
-
-
-@dataclass(frozen=True)
-class SendAck:
-    """Send MISSION_ACK with ``result``."""
-
-    result: int
-
-
-Action = SendCount | SendItem | SendRequestList | SendRequest | SendAck
-
-
-@dataclass
-class MissionUpload:
-    """Upload state machine (we are the sender).
-
-    Parameters
-    ----------
-    items : sequence of MissionItem
-        The full wire list (for ArduPilot, home placeholder first).
-    max_retries : int
-        Consecutive timeouts without progress tolerated before failing.
-    """
-
-    items: Sequence[MissionItem]
-    max_retries: int = 5
-    done: bool = False
-    requested: set[int] = field(default_factory=set)
-    items_sent: int = 0
-    ignored_acks: int = 0
-    _retries: int = 0
-    _last_sent: int | None = None
-
-    def start(self) -> list[Action]:
-        """Begin: announce the count."""
-        return [SendCount(len(self.items))]
-
-    def on_request(self, seq: int) -> list[Action]:
-        """MISSION_REQUEST or MISSION_REQUEST_INT for ``seq`` (re-requests included)."""
-        if self.done:
-            return []
-        if not 0 <= seq < len(self.items):
-            raise MissionError(f"vehicle requested item {seq} of a {len(self.items)}-item mission")
-        self.requested.add(seq)
-        self._retries = 0
-        self._last_sent = seq
-        self.items_sent += 1
-        return [SendItem(seq, self.items[seq])]
-
-    def on_ack(self, result: int) -> list[Action]:
-        """MISSION_ACK from the vehicle."""
-        if self.done:
-            return []
-        if result == MAV_MISSION_INVALID_SEQUENCE:
-            self.ignored_acks += 1  # ArduPilot's answer to a duplicate item: carry on
-            return []
-        if result == MAV_MISSION_ACCEPTED:
-            if len(self.requested) == len(self.items):
-                self.done = True
-            else:  # a stale ack from an earlier transaction
-                self.ignored_acks += 1
-            return []
-        raise MissionError(
-            f"vehicle refused the mission upload: {mission_result_name(result)}", result
-        )
-
-    def on_timeout(self) -> list[Action]:
-        """Nothing heard for one item timeout: resend what the vehicle may have lost."""
-        if self.done:
-            return []
-        self._retries += 1
-        if self._retries > self.max_retries:
-            raise MissionTimeout(
-                f"mission upload stalled: no answer after {self.max_retries} retries "
-                f"({len(self.requested)}/{len(self.items)} items requested)"
-            )
-        if self._last_sent is None:
-            return [SendCount(len(self.items))]
-        return [SendItem(self._last_sent, self.items[self._last_sent])]
-
-
-@dataclass
-class MissionDownload:
-    """Download state machine (we are the receiver)."""
-
-    max_retries: int = 5
-    done: bool = False
-    count: int | None = None
-    received: list[MissionItem] = field(default_factory=list)
-    duplicates: int = 0
-    _retries: int = 0
-
-    def start(self) -> list[Action]:
-        """Begin: ask for the list."""
-        return [SendRequestList()]
-
-    def on_count(self, count: int) -> list[Action]:
-        """MISSION_COUNT from the vehicle."""
-        if self.done:
-            return []
-        if self.count is not None:
-            if count != self.count:
-                raise MissionError(
-                    f"vehicle changed the mission count from {self.count} to {count}"
-                )
-            self.duplicates += 1
-            return [SendRequest(len(self.received))] if len(self.received) < count else []
-        self.count = count
-        self._retries = 0
-        if count == 0:
-            self.done = True
-            return [SendAck(MAV_MISSION_ACCEPTED)]
-        return [SendRequest(0)]
-
-    def on_item(self, seq: int, item: MissionItem) -> list[Action]:
-        """MISSION_ITEM_INT or MISSION_ITEM from the vehicle."""
-        if self.done or self.count is None:
-            return []
-        expected = len(self.received)
-        if seq != expected:
-            self.duplicates += 1  # duplicate or out of order: wait for the one we asked
-            return []
-        self.received.append(item)
-        self._retries = 0
-        if len(self.received) == self.count:
-            self.done = True
-            return [SendAck(MAV_MISSION_ACCEPTED)]
-        return [SendRequest(len(self.received))]
-
-    def on_ack(self, result: int) -> list[Action]:
-        """MISSION_ACK during a download means the vehicle gave up or refused."""
-        if self.done or result in (MAV_MISSION_ACCEPTED, MAV_MISSION_INVALID_SEQUENCE):
-            return []
-        raise MissionError(
-            f"vehicle refused the mission download: {mission_result_name(result)}", result
-        )
-
-    def on_timeout(self) -> list[Action]:
-        """Nothing heard: ask again for what is missing."""
-        if self.done:
-            return []
-        self._retries += 1
-        if self._retries > self.max_retries:
-            raise MissionTimeout(
-                f"mission download stalled after {self.max_retries} retries "
-                f"({len(self.received)}/{self.count} items)"
-            )
-        if self.count is None:
-            return [SendRequestList()]
-        return [SendRequest(len(self.received))]

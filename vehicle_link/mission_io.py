@@ -8,19 +8,16 @@ from typing import Any
 from vehicle_link.dialect import mavlink2
 from vehicle_link.errors import MissionError
 from vehicle_link.link import MissionChannel
-from vehicle_link.mission import (
+from vehicle_link.mission import MissionItem, item_from_message, item_to_message, mission_result_name
+from vehicle_link.mission_protocol import (
     Action,
     MissionDownload,
-    MissionItem,
     MissionUpload,
     SendAck,
     SendCount,
     SendItem,
     SendRequest,
     SendRequestList,
-    item_from_message,
-    item_to_message,
-    mission_result_name,
 )
 
 

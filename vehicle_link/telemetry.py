@@ -11,206 +11,41 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 from vehicle_link import units
 from vehicle_link.modes import mode_name
+from vehicle_link.records import (
+    MAV_SENSOR_ROTATION_PITCH_270,
+    Attitude,
+    EkfStatus,
+    GlobalOrigin,
+    GlobalPosition,
+    Heartbeat,
+    HomePosition,
+    LocalPositionNed,
+    MissionCurrent,
+    MissionItemReached,
+    MountStatus,
+    ParamValue,
+    PeerSeen,
+    Pressure,
+    Rangefinder,
+    StatusText,
+    SysStatus,
+    TelemetryRecord,
+)
+
+__all__ = [
+    "Attitude", "EkfStatus", "GlobalOrigin", "GlobalPosition", "Heartbeat", "HomePosition", "LocalPositionNed",
+    "MissionCurrent", "MissionItemReached", "MountStatus", "ParamValue", "PeerSeen", "Pressure", "Rangefinder",
+    "StatusText", "SysStatus", "TelemetryRecord", "TELEMETRY_MESSAGE_TYPES", "decode", "store_key",
+]
 
 MAV_MODE_FLAG_SAFETY_ARMED = 128
 MAV_TYPE_SUBMARINE = 12
-MAV_SENSOR_ROTATION_PITCH_270 = 25  # pointing down
 _UINT16_MAX = 65535
 _INT16_MAX = 32767
-
-
-@dataclass(frozen=True)
-class Heartbeat:
-    """HEARTBEAT of the vehicle: mode and armed state."""
-
-    time_s: float
-    system_id: int
-    component_id: int
-    mav_type: int
-    autopilot: int
-    base_mode: int
-    custom_mode: int
-    system_status: int
-    armed: bool
-    mode_name: str
-
-
-@dataclass(frozen=True)
-class Attitude:
-    """ATTITUDE: body attitude relative to NED, radians; rates rad/s."""
-
-    time_s: float
-    time_boot_s: float
-    roll_rad: float
-    pitch_rad: float
-    yaw_rad: float
-    roll_rate_rad_s: float
-    pitch_rate_rad_s: float
-    yaw_rate_rad_s: float
-
-
-@dataclass(frozen=True)
-class GlobalPosition:
-    """GLOBAL_POSITION_INT: WGS84 position, depth below the surface, NED velocity.
-
-    ``heading_rad`` is None when the vehicle reports it as unknown (UINT16_MAX).
-    """
-
-    time_s: float
-    time_boot_s: float
-    latitude_deg: float
-    longitude_deg: float
-    altitude_msl_m: float
-    depth_m: float
-    velocity_north_m_s: float
-    velocity_east_m_s: float
-    velocity_down_m_s: float
-    heading_rad: float | None
-
-
-@dataclass(frozen=True)
-class LocalPositionNed:
-    """LOCAL_POSITION_NED: position about the EKF origin (at the surface for ArduSub)."""
-
-    time_s: float
-    time_boot_s: float
-    north_m: float
-    east_m: float
-    down_m: float
-    velocity_north_m_s: float
-    velocity_east_m_s: float
-    velocity_down_m_s: float
-
-
-@dataclass(frozen=True)
-class Pressure:
-    """SCALED_PRESSURE (instance 1) or SCALED_PRESSURE2 (instance 2; ArduSub's external
-    depth sensor, e.g. a Bar30, is usually here)."""
-
-    time_s: float
-    time_boot_s: float
-    instance: int
-    press_abs_pa: float
-    press_diff_pa: float
-    temperature_degc: float
-
-
-@dataclass(frozen=True)
-class Rangefinder:
-    """DISTANCE_SENSOR or ArduPilot's RANGEFINDER: a measured distance.
-
-    ``orientation`` is a MAV_SENSOR_ORIENTATION (25 = pointing down); RANGEFINDER carries
-    none and is ArduPilot's primary (downward) rangefinder, so it is reported as 25.
-    ``signal_quality_pct`` is None when unknown. ``in_range`` is False when the reading
-    lies outside the sensor's declared limits.
-    """
-
-    time_s: float
-    source: str
-    sensor_id: int
-    distance_m: float
-    min_distance_m: float
-    max_distance_m: float
-    orientation: int
-    signal_quality_pct: int | None
-    in_range: bool
-
-    @property
-    def is_downward(self) -> bool:
-        """True for a sensor pointing down (an altimeter)."""
-        return self.orientation == MAV_SENSOR_ROTATION_PITCH_270
-
-
-@dataclass(frozen=True)
-class MountStatus:
-    """Mount attitude from GIMBAL_DEVICE_ATTITUDE_STATUS (4.3+) or MOUNT_STATUS (older).
-
-    ``tilt_rad`` is the sonar tilt, positive down (= -pitch).
-    """
-
-    time_s: float
-    source: str
-    roll_rad: float
-    pitch_rad: float
-    yaw_rad: float
-    tilt_rad: float
-
-
-@dataclass(frozen=True)
-class MissionCurrent:
-    """MISSION_CURRENT: the active mission item."""
-
-    time_s: float
-    seq: int
-    total: int
-    mission_state: int
-    mission_mode: int
-
-
-@dataclass(frozen=True)
-class MissionItemReached:
-    """MISSION_ITEM_REACHED."""
-
-    time_s: float
-    seq: int
-
-
-@dataclass(frozen=True)
-class StatusText:
-    """STATUSTEXT: a text message with its MAV_SEVERITY (0 emergency .. 7 debug)."""
-
-    time_s: float
-    severity: int
-    text: str
-    text_id: int
-    chunk_seq: int
-
-
-@dataclass(frozen=True)
-class SysStatus:
-    """SYS_STATUS: battery and sensor health. None marks values the vehicle reports as unknown."""
-
-    time_s: float
-    voltage_battery_v: float | None
-    current_battery_a: float | None
-    battery_remaining_pct: int | None
-    sensors_present: int
-    sensors_enabled: int
-    sensors_health: int
-    load_pct: float
-    drop_rate_comm_pct: float
-
-
-@dataclass(frozen=True)
-class ParamValue:
-    """PARAM_VALUE: one autopilot parameter as the vehicle holds it."""
-
-    time_s: float
-    name: str
-    value: float
-    index: int
-    count: int
-
-
-TelemetryRecord = (
-    Heartbeat
-    | Attitude
-    | GlobalPosition
-    | LocalPositionNed
-    | Pressure
-    | Rangefinder
-    | MountStatus
-    | MissionCurrent
-    | MissionItemReached
-    | StatusText
-    | SysStatus
-    | ParamValue
-)
 
 
 def _text(value: Any) -> str:
@@ -393,7 +228,21 @@ def _sys_status(msg: Any, time_s: float) -> SysStatus:
 
 def _param_value(msg: Any, time_s: float) -> ParamValue:
     return ParamValue(time_s, _text(msg.param_id), float(msg.param_value), int(msg.param_index),
-                      int(msg.param_count))
+                      int(msg.param_count), int(msg.param_type))
+
+
+def _ekf_status(msg: Any, time_s: float) -> EkfStatus:
+    return EkfStatus(time_s, int(msg.flags))
+
+
+def _global_origin(msg: Any, time_s: float) -> GlobalOrigin:
+    return GlobalOrigin(time_s, units.dege7_to_deg(msg.latitude), units.dege7_to_deg(msg.longitude),
+                        units.mm_to_m(msg.altitude))
+
+
+def _home_position(msg: Any, time_s: float) -> HomePosition:
+    return HomePosition(time_s, units.dege7_to_deg(msg.latitude), units.dege7_to_deg(msg.longitude),
+                        units.mm_to_m(msg.altitude))
 
 
 _DECODERS: dict[str, Callable[[Any, float], TelemetryRecord | None]] = {
@@ -412,6 +261,9 @@ _DECODERS: dict[str, Callable[[Any, float], TelemetryRecord | None]] = {
     "STATUSTEXT": _statustext,
     "SYS_STATUS": _sys_status,
     "PARAM_VALUE": _param_value,
+    "EKF_STATUS_REPORT": _ekf_status,
+    "GPS_GLOBAL_ORIGIN": _global_origin,
+    "HOME_POSITION": _home_position,
 }
 
 TELEMETRY_MESSAGE_TYPES: tuple[str, ...] = tuple(_DECODERS)
@@ -447,4 +299,6 @@ def store_key(record: TelemetryRecord) -> str:
         return f"Rangefinder:{record.source}:{record.sensor_id}"
     if isinstance(record, ParamValue):
         return f"ParamValue:{record.name}"
+    if isinstance(record, PeerSeen):
+        return f"PeerSeen:{record.kind}:{record.system_id}:{record.component_id}"
     return type(record).__name__

@@ -56,8 +56,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     with staged_folder(out, kind="plan", overwrite=args.overwrite, keep_partial=False) as stage:
         paths = write_outputs(plan, area, stage,
-                              altitude_reference=settings.mission.altitude_reference,
-                              acceptance_radius_m=settings.mission.acceptance_radius_m)
+                              altitude_reference=settings.mission.altitude_reference)
         if not args.no_plot:
             from planner.survey.plot import plot_plan  # matplotlib only when a plot is wanted
 

@@ -1,11 +1,15 @@
-"""``shadowsurvey run --connect udp:... --plan DIR``: fly a planned survey on a real ArduSub.
+"""``shadowsurvey run --connect udpin:0.0.0.0:14770 --plan DIR``: fly a planned survey on a real ArduSub.
 
 The same executor, MAVLink client and on-board perception as ``shadowsurvey sim``, on the
-wall clock, against the vehicle at ``--connect``. Sonar frames come from a sonar driver
-that drops ``.npz`` frames into ``--sonar-dir`` (see :mod:`planner.mission.sonar_sources`);
-without one the survey is flown and logged but no heights are measured. Arming needs an
-explicit confirmation: type ``ARM`` at the prompt, or pass ``--yes`` in scripts that have
-their own interlock.
+wall clock, against the vehicle at ``--connect`` (on BlueOS: a MAVLink endpoint, see
+docs/flying-a-real-sub.md). Order: connect, the pre-flight checks (sensors, EKF origin,
+SYSID_MYGCS and the failsafes, the topside's heartbeat and joystick, the mount), then
+the ARM prompt showing what they found (type ``ARM``; ``--yes`` for scripts with their
+own interlock), then the dive. The companion reads the vehicle's parameters and never
+changes one. Ctrl-C at any time commands the safe action (``--safe-action``, if armed)
+and still writes the run folder's summary. Sonar frames come from a driver that drops
+``.npz`` frames into ``--sonar-dir`` (:mod:`planner.mission.sonar_sources`); without
+one the survey is flown and logged but no heights are measured.
 """
 
 from __future__ import annotations
@@ -16,24 +20,27 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from perception.geodesy import LocalOrigin
 from planner.commands import args as args_types
-from planner.config import default_settings, load_settings
+from planner.config import Settings, default_settings, load_settings
 from planner.errors import UsageError
 from planner.mission.altitude_watch import AltitudeLimits, DiveWatch
 from planner.mission.executor import ExecutorConfig, MissionExecutor, PlanTilt
 from planner.mission.onboard import OnboardConfig, OnboardPerception
 from planner.mission.output_folder import check_output_folder, staged_folder
+from planner.mission.preflight import PreflightReport
 from planner.mission.products import summary_document, write_products
 from planner.mission.run_folder import RunFolder, mark_partial
 from planner.mission.safety import SafetyLimits
 from planner.mission.sonar_sources import DirectorySonarSource
 from planner.pitch.control import ShadowPitchLoop
 from planner.report.markdown import generate_report
-from planner.survey.plan import load_plan
+from planner.survey.plan import SurveyPlan, load_plan
 from vehicle_link.client import ArduSubClient, LinkHealth
 from vehicle_link.clock import WallClock
 from vehicle_link.config import LinkConfig
+
+#: Components BlueOS leaves free for a companion program (194 is mavlink2rest's).
+COMPANION_COMPONENTS = (191, 192, 193)
 
 
 def register(subparsers: Any) -> None:
@@ -41,10 +48,11 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "run",
         help="fly a planned survey on a real vehicle (asks before arming)",
-        description="Fly plan.json (from `shadowsurvey plan`) on an ArduSub vehicle over MAVLink.",
+        description="Fly plan.json (from `shadowsurvey plan`) on an ArduSub 4.5 vehicle over MAVLink.",
     )
     parser.add_argument("--connect", required=True, type=args_types.connection_string,
-                        help="MAVLink connection, e.g. udpin:0.0.0.0:14770, udpout:192.168.2.2:14550, tcp:host:port")
+                        help="MAVLink connection, e.g. udpin:0.0.0.0:14770 (a BlueOS UDP client endpoint to "
+                             "this port), udpout:192.168.2.2:14550, tcp:127.0.0.1:5777")
     parser.add_argument("--plan", required=True, help="folder written by `shadowsurvey plan` (or its plan.json)")
     parser.add_argument("--config", help="the settings TOML the plan was made with (default: shipped)")
     parser.add_argument("--out", default="runs/dive",
@@ -53,7 +61,17 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--sonar-dir", help="folder where the sonar driver drops .npz frames")
     parser.add_argument("--fixed-tilt", action="store_true", help="hold the plan's tilts (no pitch loop)")
     parser.add_argument("--on-link-loss", choices=("hold", "surface"), default="surface",
-                        help="safe action when the link drops (default: surface)")
+                        help="commanded when the link comes back after a loss (default: surface)")
+    parser.add_argument("--safe-action", choices=("hold", "surface"), default="surface",
+                        help="commanded on an abort or Ctrl-C (default: surface: ALT_HOLD and a controlled "
+                             "ascent, which needs no position)")
+    parser.add_argument("--component-id", type=int, default=191, choices=COMPANION_COMPONENTS,
+                        help="our MAVLink component id (default 191; 194 is BlueOS's mavlink2rest)")
+    parser.add_argument("--no-topside", action="store_true",
+                        help="bench test: arm without a topside ground station and joystick (nobody can take over)")
+    parser.add_argument("--set-origin", action="store_true",
+                        help="if the vehicle has no EKF origin, give it the plan's (only if the vehicle was "
+                             "switched on at the plan's origin; otherwise set its position in the DVL extension)")
     parser.add_argument("--yes", action="store_true", help="do not ask before arming")
     parser.set_defaults(func=run)
 
@@ -68,46 +86,54 @@ def confirm_arming(plan_text: str, *, stdin: TextIO | None = None, stdout: TextI
     return answer.strip() == "ARM"
 
 
-def run(args: argparse.Namespace) -> int:
-    """Connect, confirm, fly, write the run folder; exit 0 when completed.
+def _plan_text(args: argparse.Namespace, plan: SurveyPlan, settings: Settings) -> str:
+    passes = ", ".join(f"{p.name}: {p.altitude_m:.2f} m altitude, tilt {p.tilt_rad * 57.2958:.1f} deg, "
+                       f"{p.length_m:.0f} m" for p in plan.passes)
+    return (f"plan {args.plan}: {len(plan.passes)} passes ({passes}); depth limit {settings.vehicle.max_depth_m} m, "
+            f"clearance {settings.vehicle.min_clearance_m} m over the tallest target (never below "
+            f"{settings.min_altitude_m:.2f} m above the seabed); on abort or Ctrl-C: {args.safe_action}; "
+            f"on link loss: {args.on_link_loss}")
 
-    The run is built in a staged folder and moved to ``--out`` when complete; a crash or
-    Ctrl-C leaves it beside, marked partial (:mod:`planner.mission.output_folder`).
+
+def run(args: argparse.Namespace) -> int:
+    """Connect, check, confirm, fly, write the run folder; exit 0 when completed.
+
+    The run is built in a staged folder and moved to ``--out`` when complete; a crash
+    leaves it beside, marked partial (:mod:`planner.mission.output_folder`). Ctrl-C
+    during the dive commands the safe action and still writes the whole run folder.
     """
     check_output_folder(Path(args.out), kind="run", overwrite=args.overwrite)
     plan = load_plan(args.plan)
     settings = load_settings(args.config) if args.config else default_settings()
     sonar = DirectorySonarSource(Path(args.sonar_dir)) if args.sonar_dir else None
-    passes = ", ".join(f"{p.name}: {p.altitude_m:.2f} m altitude, tilt {p.tilt_rad * 57.2958:.1f} deg, "
-                       f"{p.length_m:.0f} m" for p in plan.passes)
-    text = (f"plan {args.plan}: {len(plan.passes)} passes ({passes}); depth limit "
-            f"{settings.vehicle.max_depth_m} m, clearance {settings.vehicle.min_clearance_m} m over the tallest target "
-            f"(never below {settings.min_altitude_m:.2f} m above the seabed); "
-            f"on link loss: {args.on_link_loss}")
-    if not args.yes and not confirm_arming(text):
-        raise UsageError("arming not confirmed: nothing was sent to the vehicle")
     with staged_folder(Path(args.out), kind="run", overwrite=args.overwrite, on_failure=mark_partial) as stage:
         summary = _fly(args, plan, settings, sonar, stage)
     generate_report(Path(args.out))
-    detail = f" ({summary['reason_detail']})" if summary.get("reason_detail") else ""
-    print(f"dive {summary['status']}: {summary['reason']}{detail}; run folder {args.out}")
+    print(f"dive {summary['status']}: {summary['message'] or summary['reason']}; run folder {args.out}")
+    if summary["reason"] == "arming_not_confirmed":
+        raise UsageError("arming not confirmed: the vehicle was not armed")
     return 0 if summary["status"] == "completed" else 1
 
 
-def _fly(args: argparse.Namespace, plan: Any, settings: Any, sonar: Any, out: Path) -> dict[str, Any]:
-    """Fly the dive into the run folder ``out``; returns the summary."""
+def _fly(args: argparse.Namespace, plan: SurveyPlan, settings: Settings, sonar: Any, out: Path) -> dict[str, Any]:
+    """Connect, check, ask, fly the dive into the run folder ``out``; returns the summary."""
+    text = _plan_text(args, plan, settings)
+
+    def confirm(report: PreflightReport) -> bool:
+        lines = "\n".join(f"  {line}" for line in report.lines())
+        return args.yes or confirm_arming(f"pre-flight checks passed:\n{lines}\n{text}")
+
     clock = WallClock()
     run_folder = RunFolder(out)
-    origin = LocalOrigin(plan.origin_lat_deg, plan.origin_lon_deg)
     config = ExecutorConfig(
-        safety=SafetyLimits(min_clearance_m=settings.min_altitude_m,
-                            depth_limit_m=settings.vehicle.max_depth_m),
+        safety=SafetyLimits(min_clearance_m=settings.min_altitude_m, depth_limit_m=settings.vehicle.max_depth_m),
         speed_m_s=settings.vehicle.speed_m_s, acceptance_radius_m=settings.mission.acceptance_radius_m,
-        link_lost_action=args.on_link_loss,
+        link_lost_action=args.on_link_loss, abort_action=args.safe_action, finish_action=args.safe_action,
+        topside="absent" if args.no_topside else "required", set_ekf_origin=args.set_origin,
     )
     onboard = OnboardPerception(OnboardConfig())
     tilt = PlanTilt() if args.fixed_tilt else ShadowPitchLoop(plan, settings)
-    link = LinkConfig(args.connect, max_depth_m=settings.vehicle.max_depth_m,
+    link = LinkConfig(args.connect, source_component=args.component_id, max_depth_m=settings.vehicle.max_depth_m,
                       min_clearance_m=settings.min_altitude_m,
                       tlog_path=str(run_folder.path("dive.tlog")), link_timeout_s=5.0, heartbeat_period_s=0.5)
     executors: list[MissionExecutor] = []
@@ -125,15 +151,15 @@ def _fly(args: argparse.Namespace, plan: Any, settings: Any, sonar: Any, out: Pa
     limits = AltitudeLimits(tuple(p.altitude_m for p in plan.passes), settings.min_altitude_m)
     watch = DiveWatch(limits, run_folder.event)
     executor = MissionExecutor(client, sonar, plan, config, run_folder, clock, onboard, tilt=tilt,
-                               on_cycle=watch.on_cycle)
+                               on_cycle=watch.on_cycle, confirm_arm=confirm)
     executors.append(executor)
     client.add_listener(onboard.listener)
     try:
-        result = executor.run_dive()
+        result = executor.run_dive()  # Ctrl-C inside: the safe action, then a result
     finally:
         client.close()
     excursions = watch.finish(result.end_s)
-    write_products(run_folder, onboard, origin, final=True)
+    write_products(run_folder, onboard, executor.map_origin, final=True)
     summary = summary_document(result, onboard, wall_s=time.perf_counter() - wall0,
                                abort_message=run_folder.last_message("failsafe"),
                                extra={"min_altitude_allowed_m": settings.min_altitude_m,

@@ -43,7 +43,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--start-depth-m", type=args_types.nonnegative, default=0.0,
                         help="starting depth of the vehicle, metres (default %(default)s)")
     parser.add_argument("--origin", type=args_types.finite, nargs=2, metavar=("LAT_DEG", "LON_DEG"),
-                        default=None, help="EKF origin / home (default 47 8, or the scene's)")
+                        default=None, help="EKF origin at boot, as the BlueOS DVL extension sets it "
+                                           "(default: the scene's, else none: a ground station sets it "
+                                           "with SET_GPS_GLOBAL_ORIGIN)")
+    parser.add_argument("--sitl", action="store_true",
+                        help="behave as ArduPilot's SITL build (no pilot-input failsafe, arming texts)")
     parser.add_argument("--seed", type=args_types.integer(0, 2**32 - 1), default=0, help="random seed (default 0)")
     parser.set_defaults(func=run)
 
@@ -57,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     if args.duration_s is not None and not args.duration_s > 0.0:
         raise UsageError(f"--duration-s must be positive, got {args.duration_s}")
     world: SeabedWorld = FlatSeabed(args.seabed_depth_m)
-    origin = (47.0, 8.0)
+    origin: tuple[float, float] | None = None
     if args.scene is not None:
         from sim_harness.sonar.scene import load_scene  # the renderer's scenes, loaded on demand
 
@@ -77,7 +81,8 @@ def run(args: argparse.Namespace) -> int:
                          f"{seabed_m:g} m at the start point ({where})")
     config = VehicleConfig(
         start_depth_m=args.start_depth_m,
-        autopilot=AutopilotConfig(origin_lat_deg=origin[0], origin_lon_deg=origin[1]),
+        autopilot=AutopilotConfig(origin=None if origin is None else (origin[0], origin[1], 0.0),
+                                  sitl_build=args.sitl),
         seed=args.seed,
     )
     clock = SimClock(speedup=args.speedup)

@@ -5,7 +5,15 @@ CLI commands that serve the simulator: architecture.md). The controller side (ex
 vehicle_link client, on-board perception) sees only MAVLink bytes on a UDP socket and
 sonar frames from the simulated sonar's ``poll``; simulator truth goes only to the
 scorer (:mod:`planner.dryrun.scoring`), after the dive, into ``truth.json``,
-``truth_track.csv`` and ``shadows.csv``."""
+``truth_track.csv`` and ``shadows.csv``.
+
+The simulated sub boots as a real one does: no EKF origin (the executor gives it the
+scene's, the one origin of the dive), BlueOS's own services heartbeating as system 1,
+the pilot-input failsafe latched 3 s after boot when there is no topside joystick (the
+executor then runs with ``topside="absent"``, as a bench test). A scenario may add a
+topside pilot (``[topside]``) or kill the companion mid-dive (``companion_dies_at_s``):
+its process then stops dead; ``run_on_s`` keeps the simulator running after the executor
+stops, to show what the vehicle does on its own."""
 
 from __future__ import annotations
 
@@ -19,6 +27,7 @@ from typing import Any
 
 from perception.geodesy import LocalOrigin
 from planner.config import Settings, load_settings
+from planner.dryrun.anchored_faults import AnchoredFaults
 from planner.dryrun.scenario import Scenario
 from planner.dryrun.scoring import score_against_truth, score_altitude
 from planner.errors import ConfigError, InfeasibleError
@@ -34,7 +43,9 @@ from planner.survey.lawnmower import plan_survey
 from planner.survey.mission_files import write_outputs
 from planner.survey.plan import SurveyPlan
 from planner.survey.plot import plot_plan
+from sim_harness.autopilot.autopilot import AutopilotConfig
 from sim_harness.clock import SimClock
+from sim_harness.peers import BlueOsServices
 from sim_harness.simulator import VehicleConfig, VehicleSimulator
 from sim_harness.sonar.renderer import SonarConfig, SonarRenderer
 from sim_harness.sonar.scene import Scene, load_scene
@@ -70,11 +81,18 @@ def _sonar_config(scene: Scene, settings: Settings, seed: int) -> SonarConfig:
     )
 
 
+class CompanionDied(BaseException):
+    """The companion computer's process is killed (raised from the executor's own cycle hook)."""
+
+
 def _executor_config(scenario: Scenario, settings: Settings) -> ExecutorConfig:
     safety = SafetyLimits(min_clearance_m=settings.min_altitude_m, depth_limit_m=settings.vehicle.max_depth_m)
+    options: dict[str, Any] = {"topside": "required" if scenario.topside is not None else "absent",
+                               "set_ekf_origin": True}  # the simulated EKF's zero is the scene's origin
+    options.update(scenario.executor)
     try:
         return ExecutorConfig(safety=safety, speed_m_s=settings.vehicle.speed_m_s,
-                              acceptance_radius_m=settings.mission.acceptance_radius_m, **scenario.executor)
+                              acceptance_radius_m=settings.mission.acceptance_radius_m, **options)
     except TypeError as exc:
         raise ConfigError(f"unknown executor setting: {exc}", key="executor") from exc
 
@@ -150,13 +168,16 @@ def run_dry_dive(
     run.write_json("truth.json", truth_document(scene, origin))
 
     clock = SimClock()
+    faults = AnchoredFaults.of(scenario.faults) if scenario.faults_from_state else scenario.faults
     renderer = SonarRenderer(scene.world, _sonar_config(scene, settings, scenario.seed))
     sim = VehicleSimulator(
         scene.world,
         config=VehicleConfig(start_north_m=scenario.start_north_m, start_east_m=scenario.start_east_m,
                              start_yaw_rad=scenario.start_heading_rad, seed=scenario.seed,
-                             sensors=scenario.sensors, disturbance=scenario.attitude),
-        faults=scenario.faults, clock=clock, listen="udp:127.0.0.1:0", sonar_renderer=renderer,
+                             sensors=scenario.sensors, disturbance=scenario.attitude,
+                             autopilot=AutopilotConfig(origin=None, params=dict(scenario.autopilot_params)),
+                             peers=(BlueOsServices(),) + ((scenario.topside,) if scenario.topside else ())),
+        faults=faults, clock=clock, listen="udp:127.0.0.1:0", sonar_renderer=renderer,
         current=UniformCurrent(scenario.current_north_m_s, scenario.current_east_m_s),
     )
     host, port = sim.address
@@ -179,13 +200,29 @@ def run_dry_dive(
         altitude_watch.on_cycle(executor)
         now = clock.now_s()
         if progress is not None:
-            progress(now, planned_s, executor.result.state)
+            try:
+                progress(now, planned_s, executor.result.state)
+            except KeyboardInterrupt:  # the executor commands its safe action; raised again below
+                holder["interrupted"] = True
+                raise
+        t0 = 0.0
+        if isinstance(faults, AnchoredFaults):
+            if "t0_s" not in faults.anchor:
+                entered = [t for t, state in executor.result.states if state == scenario.faults_from_state]
+                if entered:
+                    faults.anchor["t0_s"] = entered[0]  # the fault windows count from here
+            t0 = faults.anchor.get("t0_s", math.inf)
+        if scenario.companion_dies_at_s is not None and now >= t0 + scenario.companion_dies_at_s:
+            raise CompanionDied()
         if now - holder.get("products_s", now) > 60.0:
-            write_products(run, executor.onboard, origin)
+            write_products(run, executor.onboard, executor.map_origin)
             holder["products_s"] = now
+
+    joined = threading.Event()
 
     def fly() -> None:
         with clock.participant("executor"):
+            joined.set()  # the simulator starts only once this thread holds it back
             client = ArduSubClient(link_config, clock=clock, on_link_lost=lambda h: executor.on_link_lost(h),
                                    on_link_restored=lambda h: executor.on_link_restored(h))
             executor = MissionExecutor(client, sim.sonar, plan, exec_config, run, clock, onboard, tilt=tilt,
@@ -194,16 +231,26 @@ def run_dry_dive(
             client.add_listener(onboard.listener)
             try:
                 holder["result"] = executor.run_dive()
+            except CompanionDied:
+                # Killed: no safe action, no goodbye; the link's I/O thread dies with it.
+                holder["killed_s"] = clock.now_s()
+                executor.result.status, executor.result.reason = "killed", "companion_killed"
+                executor.result.message = f"the companion's process was killed at {clock.now_s():.1f} s"
+                executor.result.end_s = clock.now_s()
+                holder["result"] = executor.result
             except BaseException as exc:  # a Ctrl-C from the progress callback: raised again below
                 holder["error"] = exc
             finally:
                 client.close()
 
+    pilot = threading.Thread(target=fly, name="executor")
+    pilot.start()
+    joined.wait()
     sim.start()
     try:
-        pilot = threading.Thread(target=fly, name="executor")
-        pilot.start()
         pilot.join()
+        if scenario.run_on_s > 0.0:  # let the vehicle show what it does on its own
+            clock.sleep_until(holder.get("killed_s", clock.now_s()) + scenario.run_on_s)
     finally:
         sim.stop()
     if "result" not in holder:
@@ -211,10 +258,13 @@ def run_dry_dive(
         if "error" in holder:
             raise holder["error"]
         raise RuntimeError("the executor thread ended without a result (see the log above)")
+    if holder.get("interrupted"):
+        run.close()
+        raise KeyboardInterrupt
     result: DiveResult = holder["result"]
     executor = holder["executor"]
     excursions = altitude_watch.finish(result.end_s)
-    products = write_products(run, executor.onboard, origin, final=True,
+    products = write_products(run, executor.onboard, executor.map_origin, final=True,
                               truth_points=tuple((t.north_m, t.east_m, t.height_m) for t in scene.world.targets))
     truth_extra = score_against_truth(run, sim, settings, result, products.targets,
                                       n_beams=renderer.config.n_beams, truth_targets=scene.world.targets,

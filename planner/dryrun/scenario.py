@@ -16,7 +16,15 @@ scenario: a sim_harness scene, a GeoJSON area, a survey.toml), and the tables
 - ``[attitude]`` the vehicle's pitch and roll disturbance (degrees and seconds);
 - ``[faults]`` the fields of :class:`sim_harness.faults.FaultConfig`: probabilities within
   0..1, time windows as ``[[start_s, end_s], ...]``, ``refuse_commands`` as MAV_CMD ids;
-- ``[sensors]`` the fields of :class:`sim_harness.vehicle.sensors.SensorConfig`.
+- ``[sensors]`` the fields of :class:`sim_harness.vehicle.sensors.SensorConfig`;
+- ``[autopilot]`` ArduSub 4.5 parameters of the simulated sub on top of its BlueOS DVL
+  set-up (names of :data:`sim_harness.autopilot.params.ARDUSUB_4_5`, e.g. ``MNT1_TYPE = 7``
+  for an unstabilised mount);
+- ``[topside]`` a topside ground station with a joystick (the fields of
+  :class:`sim_harness.peers.TopsidePilot`, ``buttons = [[t_s, button], ...]``); without
+  it the dive is a bench test, nobody at the topside;
+- ``[faults] from_state``: count the fault windows from the executor's first entering
+  that state (e.g. ``"PASS_1"``) instead of the dive's start.
 
 Everything is validated here, once: an unknown key, a value of the wrong type or out of
 its range raises :class:`~planner.errors.ConfigError` naming the file and the key
@@ -37,15 +45,19 @@ from planner.errors import ConfigError
 from planner.mission.executor import ExecutorConfig
 from planner.mission.safety import SafetyLimits
 from planner.settings_table import SettingsTable
+from sim_harness.autopilot.params import ARDUSUB_4_5
 from sim_harness.errors import SimConfigError
 from sim_harness.faults import FaultConfig, TimeWindow
+from sim_harness.peers import TopsidePilot
 from sim_harness.vehicle.dynamics import AttitudeDisturbance
 from sim_harness.vehicle.sensors import SensorConfig
 
 BUILTIN_SCENARIOS = ("paper-targets",)
 
 _SCENARIO_KEYS = {"name", "description", "scene", "area", "survey", "vehicle", "executor", "faults", "current",
-                  "sensors", "attitude"}
+                  "sensors", "attitude", "autopilot", "topside"}
+#: The executor's states a fault may be counted from (``[faults] from_state``).
+FAULT_ANCHOR_STATES = ("PREFLIGHT", "ARM", "DESCEND", "PASS_1", "ALTITUDE_CHANGE", "PASS_2", "FINISH")
 
 #: ``[attitude]`` keys (degrees and seconds) and the AttitudeDisturbance field each sets.
 _ATTITUDE_KEYS = {"pitch_bias_deg": "pitch_bias_rad", "pitch_amplitude_deg": "pitch_amplitude_rad",
@@ -89,6 +101,20 @@ class Scenario:
     link_timeout_s: float = 5.0
     attitude: AttitudeDisturbance = field(default_factory=AttitudeDisturbance)
     source: str = ""
+    #: ArduSub 4.5 parameters of the simulated sub on top of its BlueOS DVL set-up
+    #: (``[autopilot]``, e.g. ``MNT1_TYPE = 7`` for an unstabilised mount).
+    autopilot_params: dict[str, float] = field(default_factory=dict)
+    #: A topside ground station with a joystick (``[topside]``); None: none (a bench).
+    topside: TopsidePilot | None = None
+    #: The companion computer dies (its process killed) at this simulated time, s.
+    companion_dies_at_s: float | None = None
+    #: Count the fault windows and ``companion_dies_at_s`` from the executor's first
+    #: entering this state (e.g. "PASS_1"; ``[faults] from_state``), not from the start
+    #: (:mod:`planner.dryrun.anchored_faults`).
+    faults_from_state: str | None = None
+    #: The simulator runs on this long after the executor stops (finished, aborted or
+    #: killed) to show what the vehicle does by itself, s.
+    run_on_s: float = 0.0
 
 
 def _scenario_file(source: str | Path) -> Path:
@@ -151,6 +177,43 @@ def _typed_fields(t: SettingsTable, cls: type, skip: tuple[str, ...] = ()) -> di
             raise t.error(name, f"cannot be set from a scenario (type {kind})")
     t.finish()
     return out
+
+
+def _autopilot(t: SettingsTable) -> dict[str, float]:
+    """The ``[autopilot]`` table: ArduSub 4.5 parameter names with numbers."""
+    params = {}
+    for key in list(t.data):
+        if key not in ARDUSUB_4_5:
+            raise t.error(key, "is not an ArduSub 4.5 parameter of the simulated sub")
+        params[key] = t.number(key, lo=-MAX_SETTING, hi=MAX_SETTING)
+    t.finish()
+    return params
+
+
+def _topside(t: SettingsTable) -> TopsidePilot:
+    """The ``[topside]`` table: the ground station's ids, timing and joystick buttons."""
+    buttons: tuple[tuple[float, int], ...] = ()
+    if t.has("buttons"):
+        t.used.add("buttons")
+        raw = t.data["buttons"]
+        ok = isinstance(raw, list) and all(
+            isinstance(b, list) and len(b) == 2 and isinstance(b[0], int | float) and not isinstance(b[0], bool)
+            and isinstance(b[1], int) and not isinstance(b[1], bool) and 1 <= b[1] <= 16 for b in raw)
+        if not ok:
+            raise t.error("buttons", "must be a list of [t_s, button] pairs (button 1..16)")
+        buttons = tuple((float(a), int(b)) for a, b in raw)
+    kwargs: dict[str, Any] = {}
+    for key in ("system_id", "component_id", "target_system"):
+        if t.has(key):
+            kwargs[key] = t.integer(key, lo=1, hi=255)
+    for key in ("start_s", "stop_s"):
+        if t.has(key):
+            kwargs[key] = t.number(key, lo=0.0, hi=MAX_FAULT_TIME_S)
+    for key in ("heartbeat_hz", "manual_control_hz"):
+        if t.has(key):
+            kwargs[key] = t.number(key, lo=0.0, hi=100.0, lo_open=True)
+    t.finish()
+    return TopsidePilot(buttons=buttons, **kwargs)
 
 
 def _build(cls: Any, kwargs: dict[str, Any], section: str, where: str) -> Any:
@@ -227,8 +290,9 @@ def load_scenario(source: str | Path, **overrides: Any) -> Scenario:
     current_e = current.number("east_m_s", lo=-MAX_CURRENT_M_S, hi=MAX_CURRENT_M_S, default=0.0)
     current.finish()
 
-    faults = _build(FaultConfig, _typed_fields(SettingsTable(doc.get("faults", {}), "faults", where), FaultConfig),
-                    "faults", where)
+    faults_table = SettingsTable(doc.get("faults", {}), "faults", where)
+    from_state = faults_table.string("from_state", FAULT_ANCHOR_STATES) if faults_table.has("from_state") else None
+    faults = _build(FaultConfig, _typed_fields(faults_table, FaultConfig), "faults", where)
     sensors = _build(SensorConfig,
                      _typed_fields(SettingsTable(doc.get("sensors", {}), "sensors", where), SensorConfig),
                      "sensors", where)
@@ -241,5 +305,8 @@ def load_scenario(source: str | Path, **overrides: Any) -> Scenario:
         executor=executor, faults=faults, current_north_m_s=current_n, current_east_m_s=current_e,
         pitch_loop=pitch_loop, seed=seed, sensors=sensors, link_timeout_s=link_timeout_s,
         attitude=attitude, source=where,
+        autopilot_params=_autopilot(SettingsTable(doc.get("autopilot", {}), "autopilot", where)),
+        topside=_topside(SettingsTable(doc["topside"], "topside", where)) if "topside" in doc else None,
+        faults_from_state=from_state,
     )
     return replace(scenario, **overrides) if overrides else scenario

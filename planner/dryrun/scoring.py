@@ -12,7 +12,7 @@ import numpy as np
 from planner.config import Settings
 from planner.dryrun.shadow_view import shadow_visible_at_tilts, visible_tilts
 from planner.mission.altitude_watch import AltitudeLimits, AltitudeWatch, replay
-from planner.mission.executor import DiveResult
+from planner.mission.executor_config import DiveResult
 from planner.mission.run_folder import RunFolder
 from planner.report.height_score import score_heights
 from planner.survey.plan import SurveyPlan

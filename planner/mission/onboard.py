@@ -4,7 +4,7 @@ frame-to-map chain (:class:`perception.mapping.survey_map.SurveyMap`: heights, t
 mosaic).
 
 Callers use a few verbs (:meth:`OnboardPerception.listener`, ``drain``,
-``process_frames``, ``set_mapping``, ``expect_vertical_motion``), the estimates at a time
+``process_frames``, ``set_mapping``, ``expect_vertical_motion``, ``set_mount_frame``), the estimates at a time
 (``altitude``, ``depth``, ``seabed_depth``, ``nav_at``), the products (``targets``,
 ``mapped_targets``, ``map_raster``) and a frozen :class:`OnboardStatus` snapshot; they
 never reach into its parts.
@@ -14,6 +14,13 @@ Only what a real vehicle knows enters here: MAVLink telemetry records (from
 true pose fields; they are overwritten with the navigation the controller received.
 Everything runs in the executor's thread; telemetry arrives from the link's I/O thread
 through a queue.
+
+Mount frame: the mount reports its angle in its own frame (GIMBAL_DEVICE_ATTITUDE_STATUS:
+ArduSub's stabilised servo mount, MNT1_TYPE 1, reports its earth-frame target); a frame's
+``tilt_rad`` is the body-frame mount angle (frame-format.md). Stamping converts once,
+here, with the vehicle's pitch at the ping: body tilt = earth tilt + pitch (tilt positive
+down, pitch positive nose up). The executor says which frame the mount uses
+(:meth:`OnboardPerception.set_mount_frame`, from MNT1_TYPE); "body" until it does.
 """
 
 from __future__ import annotations
@@ -133,6 +140,7 @@ class OnboardPerception:
         self._rejected_records = 0
         self._seen_distance_sensor = False
         self._last_frame: FrameResult | None = None
+        self._mount_frame = "body"
 
     # ------------------------------------------------------------------- verbs
     def listener(self, record: object) -> None:
@@ -153,6 +161,12 @@ class OnboardPerception:
     def set_mapping(self, enabled: bool) -> None:
         """Blend frames into the mosaic (lane runs) or not (descents, turns, transits)."""
         self._mapping = bool(enabled)
+
+    def set_mount_frame(self, frame: str) -> None:
+        """The frame of the mount's reported angle: "earth" (stabilised) or "body"."""
+        if frame not in ("earth", "body"):
+            raise ValueError(f"mount frame must be 'earth' or 'body', got {frame!r}")
+        self._mount_frame = frame
 
     def expect_vertical_motion(self, moving: bool) -> None:
         """Tell the altitude filter that a commanded depth change is (or is no longer) under way."""
@@ -273,7 +287,10 @@ class OnboardPerception:
         depth, _ = self.depth(frame.timestamp_s)
         if nav is None or not (math.isfinite(nav.north_m) and math.isfinite(altitude) and altitude > 0):
             return None
-        tilt = nav.tilt_rad if math.isfinite(nav.tilt_rad) else frame.tilt_rad
+        tilt = frame.tilt_rad
+        if math.isfinite(nav.tilt_rad):
+            pitch = nav.pitch_rad if math.isfinite(nav.pitch_rad) else 0.0
+            tilt = nav.tilt_rad + pitch if self._mount_frame == "earth" else nav.tilt_rad
         return frame.with_fields(
             north_m=nav.north_m, east_m=nav.east_m, heading_rad=nav.heading_rad,
             vehicle_pitch_rad=nav.pitch_rad, vehicle_roll_rad=nav.roll_rad, tilt_rad=tilt,

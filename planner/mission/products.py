@@ -19,7 +19,7 @@ from perception.mapping.products import (
     write_targets_geojson,
 )
 from perception.mapping.survey_map import SAME_TARGET_RADIUS_M, Drift
-from planner.mission.executor import DiveResult
+from planner.mission.executor_config import DiveResult
 from planner.mission.onboard import OnboardPerception
 from planner.mission.run_folder import RunFolder
 from planner.report.map_plot import render_map_png
@@ -122,6 +122,7 @@ def summary_document(result: DiveResult, onboard: OnboardPerception, *, wall_s: 
     doc: dict[str, Any] = {
         "status": result.status,
         "reason": result.reason,
+        "message": result.message,
         "reason_detail": abort_message if result.status == "aborted" else None,
         "final_state": result.state,
         "states": [{"t_s": round(t, 2), "state": s} for t, s in result.states],
@@ -132,6 +133,9 @@ def summary_document(result: DiveResult, onboard: OnboardPerception, *, wall_s: 
         "depth_commands_clamped": result.commands_clamped,
         "safe_action": result.safe_action,
         "waypoints_reached": result.waypoints_reached,
+        "preflight": result.preflight,
+        "mount_frame": result.mount_frame,
+        "ekf_origin_offset_m": list(result.origin_offset_m),
         "frames_processed": status.frames_used,
         "frames_skipped": status.frames_skipped,
         "n_targets": len(mapped),

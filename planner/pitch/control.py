@@ -18,6 +18,14 @@ site's tallest and smallest expected target heights as the height priors of targ
 measured yet, and the search band on (``search_weight_factor``): with no tracked target
 in range the beam keeps the far end of the range window in view, so a target entering
 it is seen whole at once rather than when the tracker first catches it.
+
+Mount frame (:meth:`ShadowPitchLoop.set_mount_frame`, from MNT1_TYPE): the loop's tilt is
+in the frame the mount takes. ArduSub's default servo mount is stabilised (the autopilot
+subtracts the vehicle's pitch, ``AP_Mount_Servo::update_angle_outputs``), so for it the
+loop commands the earth-frame depression and models the vehicle as level (the pitch is
+not added a second time); a frame's body-frame tilt is then the commanded angle plus the
+pitch at the ping. An unstabilised mount ("body") gets body-frame tilts, the vehicle's
+pitch and pitch rate in the prediction.
 """
 
 from __future__ import annotations
@@ -71,9 +79,16 @@ class ShadowPitchLoop:
                                  control_period_s=control_period_s, horizon_s=horizon_s, hold_start_s=hold_start_s)
             self._loops[pass_.name] = PitchLoop(config, mount)
         self.last_command: PitchCommand | None = None
+        self.mount_frame = "body"
         self.steps = 0
         self._commands: deque[tuple[float, float]] = deque()  # (time_s, tilt_rad) this loop asked for
         self._history_s = 5.0
+
+    def set_mount_frame(self, frame: str) -> None:
+        """"earth" (a stabilised mount: tilts are earth-frame) or "body" (see the module docstring)."""
+        if frame not in ("earth", "body"):
+            raise ValueError(f"mount frame must be 'earth' or 'body', got {frame!r}")
+        self.mount_frame = frame
 
     def mount_tilt_at(self, time_s: float) -> float:
         """The mount's tilt at ``time_s`` (rad) from the commands this loop gave: each one
@@ -131,12 +146,15 @@ class ShadowPitchLoop:
                 if not math.isfinite(r_end):
                     continue
                 frame_nav = onboard.nav_at(result.timestamp_s) or nav
+                frame_pitch = frame_nav.pitch_rad if math.isfinite(frame_nav.pitch_rad) else 0.0
+                # The measurement's geometry needs the body-frame tilt at the ping: a
+                # stabilised mount held the earth-frame angle, so add the pitch (once).
+                body_tilt = frame_tilt + frame_pitch if self.mount_frame == "earth" else frame_tilt
                 footprint = footprint_from_highlight_m(m.r_top_m, m.highlight_range_m, alt)
                 try:
                     seen_then = shadow_from_measurement(
                         target_id, top_slant_m=m.r_top_m, end_slant_m=r_end, azimuth_rad=m.azimuth_rad,
-                        altitude_m=result.altitude_m, tilt_rad=frame_tilt,
-                        pitch_rad=frame_nav.pitch_rad if math.isfinite(frame_nav.pitch_rad) else 0.0,
+                        altitude_m=result.altitude_m, tilt_rad=body_tilt, pitch_rad=frame_pitch,
                         footprint_m=footprint,
                     )
                 except ValueError:
@@ -213,7 +231,7 @@ class ShadowPitchLoop:
         """(tilt to command, smallest angular margin of a served shadow, NaN if none)."""
         altitude, _ = onboard.altitude(now_s)
         nav = onboard.nav
-        if not math.isfinite(altitude) or nav is None:
+        if not (math.isfinite(altitude) and altitude > 0.0) or nav is None:  # no (sane) altitude: the plan's tilt
             self.record_command(now_s, pass_.tilt_rad)
             return pass_.tilt_rad, math.nan
         current = current_tilt_rad if math.isfinite(current_tilt_rad) else pass_.tilt_rad
@@ -221,6 +239,8 @@ class ShadowPitchLoop:
             self.record_command(now_s - self._history_s, current)  # where the mount was put before the loop
         speed, pitch_rate = self._motion(onboard, speed_m_s)
         pitch = nav.pitch_rad if math.isfinite(nav.pitch_rad) else 0.0
+        if self.mount_frame == "earth":
+            pitch = pitch_rate = 0.0  # the stabilised mount takes the pitch out: the loop sees a level vehicle
         pitch_age_s = min(max(now_s - nav.time_s, 0.0), 0.5)
         state = PitchState(altitude_m=altitude, vehicle_pitch_rad=pitch + pitch_rate * pitch_age_s,
                            pitch_rate_rad_s=pitch_rate, speed_m_s=speed, current_tilt_rad=self.mount.clip(current))
@@ -296,6 +316,11 @@ class ZoneCentredTilt:
         self._configs = {p.name: loop_config(settings, nominal_tilt_rad=p.tilt_rad) for p in plan.passes}
         self._tilts = {p.name: DEFAULT_MOUNT.clip(nominal_tilt_for(p.altitude_m, self._configs[p.name]))
                        for p in plan.passes}
+
+    def set_mount_frame(self, frame: str) -> None:
+        """The zone-centred tilt is a depression below the horizontal: an earth-frame
+        angle, right as it is for a stabilised mount and for a level vehicle otherwise."""
+        del frame
 
     def tracking_zone(self, pass_: SurveyPass) -> dict[str, float]:
         """The pass's tracking zone at its planned altitude (:func:`describe_zone`)."""

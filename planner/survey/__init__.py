@@ -10,7 +10,7 @@ from planner.survey.area import (
 from planner.survey.footprint import exact_footprint_body, footprint, seen_mask, swept_polygon
 from planner.survey.lawnmower import choose_heading, free_region, lane_pieces, plan_survey
 from planner.survey.mission_files import (
-    MAV_CMD_DO_MOUNT_CONTROL,
+    MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW,
     MAV_CMD_NAV_WAYPOINT,
     mission_items,
     plan_geojson,
@@ -26,7 +26,7 @@ from planner.survey.routing import Router, segments_cross
 __all__ = [
     "AltitudeChoice",
     "LaneRun",
-    "MAV_CMD_DO_MOUNT_CONTROL",
+    "MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW",
     "MAV_CMD_NAV_WAYPOINT",
     "PlanSummary",
     "PlanWaypoint",

@@ -14,7 +14,8 @@ of target height, ``d(L1 - L2)/dh`` (the same target, top at the same ground ran
 ``g``), counted in range samples. The choice maximises its worst case over the expected
 target heights, over ``(H1, dH, tilt1, tilt2, g)``, subject to:
 
-- clearance: ``H1 - h_max >= min_clearance``;
+- clearance: ``H1 - h_max >= min_clearance + depth_hold`` (the vehicle's depth-hold error
+  kept above the lowest allowed altitude);
 - depth limit and surface: ``min_depth <= water_depth - H <= max_depth``;
 - ``dH >= dh_min_over_std * filter_dh_std`` (dH large against the filter's uncertainty);
 - for each pass and each expected height, the whole shadow inside the range window
@@ -136,7 +137,8 @@ def _constraints(
     margin = alt.shadow_margin_m
     per_cm = 0.01 / sonar.range_resolution_m
     out: list[tuple[str, Any]] = [
-        ("clearance", h1 - site.target_height_max_m - vehicle.min_clearance_m),
+        # the lower pass this far above the lowest allowed altitude (the vehicle's depth hold)
+        ("clearance", h1 - site.target_height_max_m - vehicle.min_clearance_m - vehicle.depth_hold_m),
         ("depth_limit", vehicle.max_depth_m - (site.water_depth_m - h1)),
         ("surface", site.water_depth_m - (h1 + dh) - vehicle.min_depth_m),
         ("dh_vs_filter", dh - alt.dh_min_over_std * alt.filter_dh_std_m),
@@ -192,7 +194,7 @@ _IPOPT_OPTS: dict[str, Any] = {"ipopt.print_level": 0, "print_time": False, "ipo
 def _starts(settings: Settings) -> list[list[float]]:
     """Initial guesses, inside the variable bounds."""
     lbx, ubx = _bounds(settings)
-    h_lo = max(lbx[0], settings.site.target_height_max_m + settings.vehicle.min_clearance_m)
+    h_lo = max(lbx[0], settings.min_altitude_m + settings.vehicle.depth_hold_m)
     dh0 = max(settings.altitudes.dh_min_over_std * settings.altitudes.filter_dh_std_m, 0.1)
     mid_t = math.radians(20.0)
     g0 = 0.5 * settings.sonar.window_end_m

@@ -11,8 +11,10 @@ from the corridor's open ends; the pass flies them among its other pieces.
 
 Both passes fly the same cross lanes: the pockets of either altitude, found by sweeping
 the band of every option of every piece (2D, so ground that a neighbouring lane's band
-reaches sideways is no pocket). Pockets smaller than ``POCKET_MIN_M2`` are left: slivers
-at obstacle corners, not worth a detour.
+reaches sideways is no pocket). Pockets smaller than ``POCKET_MIN_M2``, or thinner than
+``POCKET_MIN_WIDTH_M``, are left: slivers at obstacle corners and strips a few
+centimetres wide along an obstacle's edge, not worth a detour (they still count against
+the pass's coverage figure).
 
 Everything here is in the lane frame ``(u, v)``; the cross frame is it turned by a
 right angle, ``(u', v') = (v, -u)``, so that cross lanes run along ``+u'``.
@@ -32,6 +34,7 @@ from planner.survey.run_order import Option, Piece
 
 #: Pockets smaller than this (m^2) are not flown.
 POCKET_MIN_M2 = 1.0
+POCKET_MIN_WIDTH_M = 0.2
 
 #: Row vectors times these turn the lane frame into the cross frame and back.
 _TO_CROSS = np.array([[0.0, -1.0], [1.0, 0.0]])
@@ -67,7 +70,7 @@ def pockets(region_lane: shapely.Geometry, pieces: list[Piece], options: list[li
         if not strips:
             continue
         candidates = [g for g in shapely.get_parts(shapely.union_all(strips).intersection(region_lane))
-                      if g.area >= POCKET_MIN_M2]
+                      if _worth_a_detour(g)]
         if not candidates:
             continue
         runs = {(float(a[0]), float(a[1]), float(b[0]), float(b[1])) for o in opts for opt in o for a, b in opt.runs}
@@ -78,8 +81,13 @@ def pockets(region_lane: shapely.Geometry, pieces: list[Piece], options: list[li
             lo, hi, v = np.minimum(ends[:, 0], ends[:, 2]), np.maximum(ends[:, 0], ends[:, 2]), ends[:, 1]
             near = ends[(lo - reach <= c2) & (hi + reach >= c0) & (v >= c1 - reach) & (v <= c3 + reach)]
             swept = shapely.union_all(swept_polygons(fp, near[:, :2], near[:, 2:]))
-            found += [g for g in shapely.get_parts(c.difference(swept)) if g.area >= POCKET_MIN_M2]
+            found += [g for g in shapely.get_parts(c.difference(swept)) if _worth_a_detour(g)]
     return shapely.union_all(found) if found else shapely.Polygon()
+
+
+def _worth_a_detour(pocket: shapely.Geometry) -> bool:
+    """At least ``POCKET_MIN_M2`` and wider than ``POCKET_MIN_WIDTH_M`` somewhere."""
+    return bool(pocket.area >= POCKET_MIN_M2 and not pocket.buffer(-POCKET_MIN_WIDTH_M / 2).is_empty)
 
 
 def cross_lanes(pocket_lane: shapely.Geometry, free_lane: shapely.Geometry, spacing_m: float,

@@ -2,18 +2,39 @@
 ``.waypoints`` and GeoJSON.
 
 One list of :class:`MissionItem` (built by :func:`mission_items`, pure) feeds both
-mission formats:
+mission formats, in what ArduSub 4.5 runs in AUTO (``Sub::start_command``,
+ArduSub/commands_logic.cpp):
 
-- ``MAV_CMD_DO_CHANGE_SPEED`` (178) with the survey speed;
-- per pass: ``MAV_CMD_DO_MOUNT_CONTROL`` (205) with param1 = pitch in degrees in
-  ArduPilot's mount convention (negative = down, so ``-tilt``) and param7 = 2
-  (``MAV_MOUNT_MODE_MAVLINK_TARGETING``), then one ``MAV_CMD_NAV_WAYPOINT`` (16) per
-  waypoint of the pass.
+- per pass: ``MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW`` (1000) with param1 = the mount pitch
+  in whole degrees (ArduPilot's convention, negative = down, so ``-tilt``; AP_Mission
+  stores it as an int8, so it is rounded here rather than truncated there) and param2 =
+  yaw 0; for ArduSub's default stabilised mount (MNT1_TYPE 1) that is an earth-frame
+  angle, which is what the plan's tilt is. AP_Mission runs this command itself.
+  ``DO_MOUNT_CONTROL`` and ``DO_CHANGE_SPEED`` are *not* used: Sub 4.5 reads their
+  packed parameters as a location and refuses them ("Bad alt frame"), so in a Sub
+  mission they have no effect. The AUTO speed is the vehicle's ``WPNAV_SPEED``.
+- then one ``MAV_CMD_NAV_WAYPOINT`` (16) per waypoint of the pass, param1 (hold) 0 and
+  param2 0: a sub keeps no per-waypoint acceptance radius (WPNAV_RADIUS for all).
 
-Altitude of the waypoints (``[mission] altitude_reference``): ``"seabed"`` puts the
-altitude above the seabed in ``MAV_FRAME_GLOBAL_TERRAIN_ALT`` (10); ``"depth"`` puts
-``-depth`` in ``MAV_FRAME_GLOBAL_RELATIVE_ALT`` (3), the ArduSub convention for depth.
-DO commands use ``MAV_FRAME_MISSION`` (2).
+Altitude of the waypoints (``[mission] altitude_reference``):
+
+- ``"seabed"`` (default): the altitude above the seabed in ``MAV_FRAME_GLOBAL_TERRAIN_ALT``
+  (10), alt >= 0. ArduSub 4.5 flies these in AUTO by its downward rangefinder
+  (``AC_WPNav`` with WPNAV_RFND_USE 1 and RNGFND1_TYPE/ORIENT set; the Sub-4.5 branch
+  has "support ABOVE_TERRAIN frame in auto"), so the vehicle holds the survey altitude
+  over a seabed that slopes. This is what a survey that must keep its altitude needs.
+  Without a rangefinder the item gives "Terrain data (rangefinder) not available" and
+  the terrain failsafe (FS_TERRAIN_ENAB, default 0 = disarm).
+- ``"depth"``: ``-depth`` in ``MAV_FRAME_GLOBAL_RELATIVE_ALT`` (3), alt <= 0 below home
+  (the surface): a fixed depth, for a vehicle without a rangefinder on flat ground.
+
+Absolute-frame (0) waypoints are refused by Sub at run time ("Bad alt frame").
+
+The values are those ArduSub keeps (AP_Mission ``mavlink_int_to_mission_cmd``): latitude
+and longitude in whole 1e-7 degrees, the altitude in whole centimetres (rounded here:
+AP_Mission truncates ``z * 100.0f``, which would turn 0.99999 m into 99 cm; whole
+centimetres below 163 m survive that float32 product exactly). A mission read back from
+the vehicle is then the file itself, home aside.
 
 The ``.plan`` carries what QGroundControl's loader requires (PlanMasterController /
 MissionController::_loadJsonMissionFileV2 / SimpleMissionItem): ``fileType`` "Plan",
@@ -40,13 +61,11 @@ from planner.survey.footprint import Footprint, swept_polygon
 from planner.survey.plan import SurveyPlan
 
 MAV_CMD_NAV_WAYPOINT = 16
-MAV_CMD_DO_CHANGE_SPEED = 178
-MAV_CMD_DO_MOUNT_CONTROL = 205
+MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW = 1000
 MAV_FRAME_GLOBAL = 0
 MAV_FRAME_MISSION = 2
 MAV_FRAME_GLOBAL_RELATIVE_ALT = 3
 MAV_FRAME_GLOBAL_TERRAIN_ALT = 10
-MAV_MOUNT_MODE_MAVLINK_TARGETING = 2
 MAV_AUTOPILOT_ARDUPILOTMEGA = 3
 MAV_TYPE_SUBMARINE = 12
 
@@ -61,8 +80,7 @@ class MissionItem:
     autocontinue: bool = True
 
 
-def mission_items(plan: SurveyPlan, *, altitude_reference: str = "seabed",
-                  acceptance_radius_m: float = 1.0) -> tuple[MissionItem, ...]:
+def mission_items(plan: SurveyPlan, *, altitude_reference: str = "seabed") -> tuple[MissionItem, ...]:
     """The mission (without the home item) for a plan; see the module docstring.
 
     Raises
@@ -72,19 +90,19 @@ def mission_items(plan: SurveyPlan, *, altitude_reference: str = "seabed",
     """
     if altitude_reference not in ("seabed", "depth"):
         raise ValueError(f"altitude_reference must be 'seabed' or 'depth', got {altitude_reference!r}")
-    items = [MissionItem(MAV_CMD_DO_CHANGE_SPEED, MAV_FRAME_MISSION,
-                         (1.0, plan.summary.speed_m_s, -1.0, 0.0, 0.0, 0.0, 0.0))]
+    items: list[MissionItem] = []
     for p in plan.passes:
-        items.append(MissionItem(MAV_CMD_DO_MOUNT_CONTROL, MAV_FRAME_MISSION,
-                                 (-math.degrees(p.tilt_rad), 0.0, 0.0, 0.0, 0.0, 0.0,
-                                  float(MAV_MOUNT_MODE_MAVLINK_TARGETING))))
+        pitch_deg = float(round(-math.degrees(p.tilt_rad)))
+        items.append(MissionItem(MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, MAV_FRAME_MISSION,
+                                 (pitch_deg, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)))
         if altitude_reference == "seabed":
             frame, alt = MAV_FRAME_GLOBAL_TERRAIN_ALT, p.altitude_m
         else:
             frame, alt = MAV_FRAME_GLOBAL_RELATIVE_ALT, -p.depth_m
+        alt = round(alt * 100.0) / 100.0
         for w in p.waypoints:
-            items.append(MissionItem(MAV_CMD_NAV_WAYPOINT, frame,
-                                     (0.0, acceptance_radius_m, 0.0, 0.0, w.lat_deg, w.lon_deg, alt)))
+            lat, lon = round(w.lat_deg * 1e7) / 1e7, round(w.lon_deg * 1e7) / 1e7
+            items.append(MissionItem(MAV_CMD_NAV_WAYPOINT, frame, (0.0, 0.0, 0.0, 0.0, lat, lon, alt)))
     return tuple(items)
 
 
@@ -206,15 +224,13 @@ def summary_text(plan: SurveyPlan) -> str:
 
 
 def write_outputs(plan: SurveyPlan, area: SurveyArea, out_dir: str | Path, *,
-                  altitude_reference: str = "seabed", acceptance_radius_m: float = 1.0,
-                  stem: str = "survey") -> dict[str, Path]:
+                  altitude_reference: str = "seabed", stem: str = "survey") -> dict[str, Path]:
     """Write plan.json, STEM.plan, STEM.waypoints, STEM.geojson and summary.txt to
     ``out_dir`` (created if needed); each file is written atomically (:mod:`perception.atomic_file`).
     Returns the paths by kind."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    items = mission_items(plan, altitude_reference=altitude_reference,
-                          acceptance_radius_m=acceptance_radius_m)
+    items = mission_items(plan, altitude_reference=altitude_reference)
     n_fp = max(1, sum(len(p.runs) for p in plan.passes) // 2000)
     texts = {
         "plan_json": ("plan.json", plan.to_json()),

@@ -284,6 +284,16 @@ class MavlinkPort:
             for data in self._tx.pop_due(now_s):
                 self.transport.send(data)
 
+    def send_raw(self, data: bytes, now_s: float) -> None:
+        """Send bytes another system packed (a peer the router forwards), through the faults."""
+        self.packets_out += 1
+        if self._faulty:
+            self._tx.push(now_s, data)
+            for due in self._tx.pop_due(now_s):
+                self.transport.send(due)
+        else:
+            self.transport.send(data)
+
     def close(self) -> None:
         """Close the transport."""
         self.transport.close()

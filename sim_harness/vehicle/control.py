@@ -100,7 +100,10 @@ def heave_for_rate(
     err = w_des_m_s - vel_down_m_s
     lim = INTEGRAL_LIMIT_FRACTION * p.max_heave_n
     integ.down_n = _clip(integ.down_n + k * HEAVE_INTEGRAL_1_S * err * dt_s, lim)
-    return k * err + integ.down_n
+    # Feed-forward the drag at the desired rate (as the horizontal loop does): the integral
+    # is left with the buoyancy, and does not wind up through a descent and overshoot.
+    ff = (p.drag_lin_heave + p.drag_quad_heave * abs(w_des_m_s)) * w_des_m_s
+    return k * err + integ.down_n + ff
 
 
 def yaw_moment(yaw_target_rad: float, yaw_rad: float, yaw_rate_rad_s: float, p: RovParams) -> float:

@@ -25,6 +25,7 @@ from vehicle_link.modes import SubMode
 from vehicle_link.telemetry import (
     Attitude,
     GlobalPosition,
+    Heartbeat,
     LocalPositionNed,
     Pressure,
     Rangefinder,
@@ -64,8 +65,11 @@ def test_arm_accepted_but_never_shown_armed_times_out(peer, client):
     assert client.armed is False
 
 
-def test_force_arm_sends_magic_number(peer, client):
+def test_force_arm_and_disarm_send_ardupilots_magic_numbers(peer, client):
+    """GCS.h: magic_force_arm_value 2989, magic_force_disarm_value 21196."""
     client.arm(force=True)
+    assert peer.commands(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM)[-1].param2 == 2989.0
+    client.disarm(force=True)
     assert peer.commands(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM)[-1].param2 == 21196.0
 
 
@@ -229,23 +233,27 @@ def test_altitude_target_below_clearance_or_too_deep_is_refused_before_sending(
     assert peer.of_type("SET_POSITION_TARGET_GLOBAL_INT") == []
 
 
-def test_altitude_target_in_terrain_frame_when_firmware_has_it(peer, client_factory):
-    client = client_factory(make_config(peer, terrain_frame=True))
-    client.connect()
+def test_posvel_target_uses_position_velocity_and_ignores_acceleration(peer, client):
+    """ArduSub 4.5 acts on a LOCAL_NED target only with the accel bits set; position and
+    velocity both used -> Guided_PosVel (GCS_Mavlink.cpp SET_POSITION_TARGET_LOCAL_NED)."""
     client.set_mode(SubMode.GUIDED)
-    _feed_altitude_telemetry(peer, client)
-    result = client.set_altitude_target(2.5)
-    assert result.method == "terrain_frame"
+    client.goto_posvel(3.0, 4.0, 5.0, 0.2, -0.1, 0.05, yaw_rad=1.0)
     _sync(peer, client)
-    (msg,) = peer.of_type("SET_POSITION_TARGET_GLOBAL_INT")
-    assert msg.coordinate_frame == mavlink2.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT
-    assert msg.alt == pytest.approx(2.5)
-    assert (msg.lat_int, msg.lon_int) == (int(47.1 * 1e7), int(-122.2 * 1e7))
-    assert not msg.type_mask & (commands.TYPE_MASK_VX_IGNORE | commands.TYPE_MASK_Z_IGNORE)
+    (msg,) = peer.of_type("SET_POSITION_TARGET_LOCAL_NED")
+    assert (msg.x, msg.y, msg.z) == (3.0, 4.0, 5.0)
+    assert (msg.vx, msg.vy, msg.vz) == pytest.approx((0.2, -0.1, 0.05))
+    mask = msg.type_mask
+    assert not mask & 0b111 and not mask & 0b111000 and mask & 0b111000000 == 0b111000000
+    assert not mask & commands.TYPE_MASK_YAW_IGNORE and msg.yaw == pytest.approx(1.0)
+    with pytest.raises(SafetyLimitError):
+        client.goto_posvel(3.0, 4.0, -1.0, 0.0, 0.0)  # above the surface
 
 
 @pytest.mark.parametrize("protocol", ["mount_control", "gimbal_manager"])
-def test_mount_tilt_is_sent_and_resent_after_every_mode_change(peer, client_factory, protocol):
+def test_mount_tilt_is_sent_once_and_never_resent_on_a_mode_change(peer, client_factory, protocol):
+    """ArduSub 4.5 puts the mount into RC targeting on a mode change, which holds the
+    angle; the link does not re-send (after a pilot's mode change the companion must not
+    command anything)."""
     client = client_factory(make_config(peer, mount_protocol=protocol))
     client.connect()
     command = (
@@ -258,12 +266,12 @@ def test_mount_tilt_is_sent_and_resent_after_every_mode_change(peer, client_fact
     assert first.param1 == pytest.approx(-30.0)  # MAVLink pitch is up positive
     if protocol == "mount_control":
         assert first.param7 == mavlink2.MAV_MOUNT_MODE_MAVLINK_TARGETING
+    else:
+        assert first.param2 == 0.0  # pitch and yaw both given (4.5 refuses a NaN yaw)
     client.set_mode(SubMode.ALT_HOLD)
-    assert wait_real(lambda: len(peer.commands(command)) == 2)
     peer.custom_mode = SubMode.MANUAL  # a mode change made elsewhere (pilot, failsafe)
-    assert wait_real(lambda: len(peer.commands(command)) == 3)
-    assert all(m.param1 == pytest.approx(-30.0) for m in peer.commands(command))
-    assert client.stats().sticky_resends == 2
+    _sync(peer, client)
+    assert len(peer.commands(command)) == 1
 
 
 def test_mount_tilt_without_waiting_for_the_ack(peer, client):
@@ -383,3 +391,46 @@ def test_callbacks_cannot_block_the_io_thread(peer, client_factory):
     assert wait_real(lambda: bool(errors))
     assert "I/O thread" in str(errors[0])
     assert not peer.armed
+
+
+def test_topside_heartbeats_and_joystick_are_recorded_as_peers(peer, client):
+    """The companion sees the topside's HEARTBEAT (system 255) and MANUAL_CONTROL through
+    the router, and BlueOS's services (system 1, component 194): kept apart from the
+    vehicle's own heartbeat."""
+    topside = mavlink2.MAVLink(None, srcSystem=255, srcComponent=190)
+    blueos = mavlink2.MAVLink(None, srcSystem=1, srcComponent=194)
+    peer.send_raw(mavlink2.MAVLink_heartbeat_message(mavlink2.MAV_TYPE_GCS, 8, 0, 0, 4, 3).pack(topside))
+    peer.send_raw(mavlink2.MAVLink_manual_control_message(1, 0, 0, 500, 0, 0).pack(topside))
+    peer.send_raw(mavlink2.MAVLink_heartbeat_message(mavlink2.MAV_TYPE_ONBOARD_CONTROLLER, 8, 0, 0, 4, 3).pack(blueos))
+    assert wait_real(lambda: len(client.peers("HEARTBEAT", 10.0)) == 2)
+    assert {(p.system_id, p.component_id) for p in client.peers("HEARTBEAT", 10.0)} == {(255, 190), (1, 194)}
+    (pilot,) = client.peers("MANUAL_CONTROL", 10.0)
+    assert pilot.system_id == 255
+    assert client.latest(Heartbeat).component_id == 1 and client.latest(Heartbeat).mav_type == 12
+
+
+def test_typed_parameter_read_mount_frame_and_ekf_origin(peer, client):
+    params = {"MNT1_TYPE": (1.0, mavlink2.MAV_PARAM_TYPE_INT8)}
+    origin: list[tuple[int, int]] = []
+
+    def param_read(msg):
+        value, ptype = params[msg.param_id]
+        peer.send(mavlink2.MAVLink_param_value_message(msg.param_id.encode(), value, ptype, 900, 7))
+
+    def set_origin(msg):
+        if not origin:
+            origin.append((msg.latitude, msg.longitude))
+        peer.send(mavlink2.MAVLink_gps_global_origin_message(*origin[0], 0, 0))
+
+    peer.on_message["PARAM_REQUEST_READ"] = param_read
+    peer.on_message["SET_GPS_GLOBAL_ORIGIN"] = set_origin
+    record = client.get_parameter("MNT1_TYPE")
+    assert (record.value, record.param_type) == (1.0, mavlink2.MAV_PARAM_TYPE_INT8)
+    assert client.mount_frame() == "earth"
+    params["MNT1_TYPE"] = (7.0, mavlink2.MAV_PARAM_TYPE_INT8)
+    assert client.mount_frame() == "body"
+    assert client.ekf_origin(timeout_s=0.3) is None  # the peer sends nothing: no origin
+    got = client.set_ekf_origin(43.295, 5.36)
+    assert (got.latitude_deg, got.longitude_deg) == (43.295, 5.36)
+    again = client.set_ekf_origin(47.0, 8.0)  # ignored by the vehicle: its origin comes back
+    assert (again.latitude_deg, again.longitude_deg) == (43.295, 5.36)

@@ -9,20 +9,23 @@ from tests.vehicle_link.vl_peer import make_config
 from vehicle_link.errors import MissionError, MissionTimeout, MissionVerifyError
 from vehicle_link.mission import (
     HOME_PLACEHOLDER,
-    MissionDownload,
     MissionItem,
+    ardupilot_wire_items,
+    ardusub_stored,
+    item_from_message,
+    item_to_message,
+    items_match,
+    verify_items,
+    waypoint,
+)
+from vehicle_link.mission_protocol import (
+    MissionDownload,
     MissionUpload,
     SendAck,
     SendCount,
     SendItem,
     SendRequest,
     SendRequestList,
-    ardupilot_wire_items,
-    item_from_message,
-    item_to_message,
-    items_match,
-    verify_items,
-    waypoint,
 )
 
 
@@ -67,6 +70,24 @@ def test_upload_machine_ignores_stale_accept_and_fails_on_refusal():
     assert info.value.result == mavlink2.MAV_MISSION_NO_SPACE
     with pytest.raises(MissionError):
         MissionUpload(_survey(2)).on_request(5)
+
+
+def test_upload_machine_ends_unconfirmed_when_the_final_ack_was_lost():
+    """The last item re-sent after a lost ACCEPTED: ArduSub 4.5, no longer receiving, answers
+    MAV_MISSION_ERROR (GCS_Common.cpp GCS_MAVLINK::handle_mission_item); the upload has
+    ended, to be verified by download, not failed."""
+    items = _survey(1)
+    up = MissionUpload(items)
+    up.start()
+    up.on_request(0)
+    assert up.on_timeout() == [SendItem(0, items[0])]  # the ACCEPTED was lost: send the last again
+    up.on_ack(mavlink2.MAV_MISSION_ERROR)
+    assert up.done and up.unconfirmed
+    early = MissionUpload(_survey(2))
+    early.start()
+    early.on_request(0)
+    with pytest.raises(MissionError):  # before the end an ERROR is a refusal
+        early.on_ack(mavlink2.MAV_MISSION_ERROR)
 
 
 def test_upload_machine_timeouts_resend_then_give_up():
@@ -208,3 +229,29 @@ def test_verification_catches_a_vehicle_that_alters_items(peer, client):
     with pytest.raises(MissionVerifyError) as info:
         client.upload_mission(_survey(3))
     assert info.value.index == 2
+
+
+def test_verification_compares_what_ardusub_stores():
+    """AP_Mission keeps alt in whole cm, the frame family (3 for 6, 10 for 11) and, for a
+    NAV_WAYPOINT on a sub, param1 only: such a readback verifies; a real move does not."""
+    sent = waypoint(47.6062095, -122.3320708, 5.4789, hold_s=2.0, acceptance_radius_m=0.25)
+    back = MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                       sent.latitude_deg, sent.longitude_deg, -5.47, 2.0, 0.0, 0.0, 0.0)
+    assert items_match(sent, back)
+    assert ardusub_stored(sent).alt_cm == -547 and ardusub_stored(sent).params == (2.0,)
+    terrain = MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, mavlink2.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT, 47.6, -122.3, 1.2)
+    assert items_match(terrain, MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, mavlink2.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+                                            47.6, -122.3, 1.2))
+    assert not items_match(terrain, MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                                                47.6, -122.3, 1.2))
+    assert not items_match(sent, MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                                             sent.latitude_deg, sent.longitude_deg, -5.46, 2.0))  # a cm off
+
+
+def test_upload_verifies_against_an_ardusub_readback(peer, client):
+    peer.ardusub_readback = True
+    items = [waypoint(47.6 + 1e-5 * i, -122.3, 5.0 + 0.0123 * i, hold_s=1.0, acceptance_radius_m=0.25)
+             for i in range(5)]
+    client.upload_mission(items)  # raises MissionVerifyError if the comparison were strict
+    got = client.download_mission()
+    assert [g.frame for g in got] == [mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT] * 5

@@ -160,12 +160,12 @@ def test_mission_status_text_and_sys_status():
 
 def test_non_telemetry_messages_decode_to_none():
     assert decode(_wire(mavlink2.MAVLink_command_ack_message(400, 0)), 0) is None
-    assert len(TELEMETRY_MESSAGE_TYPES) == 15
+    assert len(TELEMETRY_MESSAGE_TYPES) == 18
 
 
 def test_param_value_is_a_record_keyed_by_name():
     record = decode(_wire(mavlink2.MAVLink_param_value_message(b"WPNAV_SPEED", 50.0, 9, 300, 120)), 2.5)
-    assert record == ParamValue(time_s=2.5, name="WPNAV_SPEED", value=50.0, index=120, count=300)
+    assert record == ParamValue(time_s=2.5, name="WPNAV_SPEED", value=50.0, index=120, count=300, param_type=9)
     assert store_key(record) == "ParamValue:WPNAV_SPEED"
 
 

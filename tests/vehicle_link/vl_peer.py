@@ -8,6 +8,7 @@ messages, silence, garbage bytes, signing.
 
 from __future__ import annotations
 
+import math
 import os
 import select
 import socket
@@ -95,6 +96,9 @@ class ScriptedVehicle:
         self.drop_download_once: set[int] = set()
         self.mission_refusal: int | None = None
         self.answer_counts = True
+        #: Read items back as ArduSub 4.5 stores them (AP_Mission::mission_cmd_to_mavlink_int):
+        #: frames 3/10 for 6/11, altitude in whole cm, a NAV_WAYPOINT's params 2-4 zero.
+        self.ardusub_readback = False
         # extra scripted reactions: message type -> callable(msg)
         self.on_message: dict[str, Callable[[Any], None]] = {}
         self.alter_item: Callable[[Any], None] | None = None
@@ -267,23 +271,16 @@ class ScriptedVehicle:
                 return
             if 0 <= msg.seq < len(self.mission):
                 item = self.mission[msg.seq]
+                frame, z, params = item.frame, item.z, (item.param1, item.param2, item.param3, item.param4)
+                if self.ardusub_readback:
+                    frame = {6: 3, 11: 10, 5: 0}.get(frame, frame)
+                    z = math.trunc(z * 100.0) / 100.0
+                    if item.command == mavlink2.MAV_CMD_NAV_WAYPOINT:
+                        params = (float(math.trunc(item.param1)), 0.0, 0.0, 0.0)
                 self.send(
                     mavlink2.MAVLink_mission_item_int_message(
-                        msg.get_srcSystem(),
-                        msg.get_srcComponent(),
-                        msg.seq,
-                        item.frame,
-                        item.command,
-                        0,
-                        item.autocontinue,
-                        item.param1,
-                        item.param2,
-                        item.param3,
-                        item.param4,
-                        item.x,
-                        item.y,
-                        item.z,
-                        0,
+                        msg.get_srcSystem(), msg.get_srcComponent(), msg.seq, frame, item.command, 0,
+                        1 if self.ardusub_readback else item.autocontinue, *params, item.x, item.y, z, 0,
                     )
                 )
         elif mtype == "MISSION_CLEAR_ALL":

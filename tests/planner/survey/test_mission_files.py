@@ -16,7 +16,7 @@ from planner.survey.altitudes import choose_altitudes
 from planner.survey.area import SurveyArea, area_from_geojson
 from planner.survey.lawnmower import plan_survey
 from planner.survey.mission_files import (
-    MAV_CMD_DO_MOUNT_CONTROL,
+    MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW,
     MAV_CMD_NAV_WAYPOINT,
     mission_items,
     plan_geojson,
@@ -128,29 +128,34 @@ def test_qgc_plan_passes_the_loader_rules(plan_and_area, reference: str) -> None
     assert len(wps) == sum(len(p.waypoints) for p in plan.passes)
     if reference == "seabed":
         assert {it["frame"] for it in wps} == {10}
-        alts = sorted({round(it["params"][6], 9) for it in wps})
-        assert alts == sorted(round(p.altitude_m, 9) for p in plan.passes)
+        alts = sorted({it["params"][6] for it in wps})  # whole centimetres, as ArduSub keeps them
+        assert alts == sorted(round(p.altitude_m * 100) / 100 for p in plan.passes)
     else:
         assert {it["frame"] for it in wps} == {3}
         assert all(it["params"][6] < 0 for it in wps)
-        assert sorted({round(-it["params"][6], 9) for it in wps}) == sorted(
-            round(p.depth_m, 9) for p in plan.passes)
+        assert sorted({-it["params"][6] for it in wps}) == sorted(
+            round(p.depth_m * 100) / 100 for p in plan.passes)
     assert [it["doJumpId"] for it in doc["mission"]["items"]] == list(
         range(1, len(doc["mission"]["items"]) + 1))
 
 
-def test_mount_tilt_precedes_each_pass(plan_and_area) -> None:
+def test_mount_tilt_precedes_each_pass_in_a_command_sub_4_5_runs(plan_and_area) -> None:
+    """DO_GIMBAL_MANAGER_PITCHYAW (AP_Mission runs it itself; int8 whole degrees, yaw given);
+    no DO_MOUNT_CONTROL or DO_CHANGE_SPEED, which Sub::start_command refuses ("Bad alt frame")."""
     plan, _ = plan_and_area
     items = mission_items(plan)
-    mounts = [i for i, it in enumerate(items) if it.command == MAV_CMD_DO_MOUNT_CONTROL]
+    assert {it.command for it in items} == {MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, MAV_CMD_NAV_WAYPOINT}
+    mounts = [i for i, it in enumerate(items) if it.command == MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW]
     assert len(mounts) == len(plan.passes)
     for idx, p in zip(mounts, plan.passes, strict=True):
         it = items[idx]
-        assert it.params[0] == pytest.approx(-math.degrees(p.tilt_rad))  # negative = down
-        assert it.params[6] == 2  # MAV_MOUNT_MODE_MAVLINK_TARGETING
+        assert it.params[0] == round(-math.degrees(p.tilt_rad))  # negative = down, whole degrees
+        assert it.params[1] == 0.0 and not any(math.isnan(v) for v in it.params)
         nxt = items[idx + 1]
         assert nxt.command == MAV_CMD_NAV_WAYPOINT
-        assert (nxt.params[4], nxt.params[5]) == (p.waypoints[0].lat_deg, p.waypoints[0].lon_deg)
+        assert (nxt.params[4], nxt.params[5]) == pytest.approx((p.waypoints[0].lat_deg, p.waypoints[0].lon_deg),
+                                                               abs=0.51e-7)  # whole 1e-7 degrees
+        assert round(nxt.params[4] * 1e7) / 1e7 == nxt.params[4]
 
 
 def test_waypoints_load_in_pymavlink_and_round_trip(plan_and_area, tmp_path: Path) -> None:

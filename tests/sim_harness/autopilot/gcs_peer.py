@@ -15,11 +15,15 @@ from typing import Any
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as M  # MAVLink 2 messages
 
+from sim_harness.autopilot.autopilot import AutopilotConfig
 from sim_harness.clock import SimClock
-from sim_harness.simulator import VehicleSimulator
+from sim_harness.simulator import VehicleConfig, VehicleSimulator
 
+#: The EKF origin most tests give the vehicle (as the BlueOS DVL extension would set it).
+ORIGIN = (47.0, 8.0, 0.0)
 STEP_S = 0.02
 HEARTBEAT_PERIOD_S = 1.0
+MANUAL_CONTROL_PERIOD_S = 0.1  # a ground station with a joystick, as QGroundControl or Cockpit
 
 
 class GcsPeer:
@@ -35,7 +39,11 @@ class GcsPeer:
         )
         self.clock = clock
         self.auto_heartbeat = True
+        #: Neutral MANUAL_CONTROL with every tick while heartbeats go (the pilot's joystick):
+        #: ArduSub 4.5 on real hardware disarms 3 s after the last one (FS_PILOT_INPUT).
+        self.auto_manual_control = True
         self._last_hb_s = -1e9
+        self._last_mc_s = -1e9
         self.log: list[Any] = []
         self._unseen: collections.deque[Any] = collections.deque()
 
@@ -48,6 +56,12 @@ class GcsPeer:
         """Send one GCS heartbeat."""
         self.conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         self._last_hb_s = self.clock.now_s()
+
+    def manual_control(self, x: int = 0, y: int = 0, z: int = 500, r: int = 0, buttons: int = 0,
+                       target: int = 1) -> None:
+        """Send one MANUAL_CONTROL (sticks neutral by default)."""
+        self.conn.mav.manual_control_send(target, x, y, z, r, buttons)
+        self._last_mc_s = self.clock.now_s()
 
     def pump(self) -> list[Any]:
         """Read everything that has arrived (non-blocking)."""
@@ -67,8 +81,15 @@ class GcsPeer:
         """Wait one simulator step, keep the heartbeat going, and read what arrived."""
         if self.auto_heartbeat and self.clock.now_s() - self._last_hb_s >= HEARTBEAT_PERIOD_S:
             self.heartbeat()
+        if (self.auto_heartbeat and self.auto_manual_control
+                and self.clock.now_s() - self._last_mc_s >= MANUAL_CONTROL_PERIOD_S):
+            self.manual_control()
         self.clock.sleep_s(STEP_S)
         return self.pump()
+
+    def discard(self) -> None:
+        """Forget the messages received so far (later waits look at newer ones only)."""
+        self._unseen.clear()
 
     def run_for(self, duration_s: float) -> list[Any]:
         """Wait ``duration_s`` simulated seconds; returns every message received."""
@@ -81,13 +102,17 @@ class GcsPeer:
         return out
 
     def wait_for(self, kind: str | tuple[str, ...], timeout_s: float,
-                 condition: Callable[[Any], bool] | None = None) -> Any | None:
-        """First message of ``kind`` (and matching ``condition``) within ``timeout_s``."""
+                 condition: Callable[[Any], bool] | None = None, *, from_autopilot: bool = True) -> Any | None:
+        """First message of ``kind`` (and matching ``condition``) within ``timeout_s``; only
+        the autopilot's (system 1, component 1) unless ``from_autopilot`` is False (the
+        router also forwards BlueOS's own heartbeats)."""
         kinds = (kind,) if isinstance(kind, str) else kind
         end = self.clock.now_s() + timeout_s
         while True:
             while self._unseen:
                 msg = self._unseen.popleft()
+                if from_autopilot and (msg.get_srcSystem(), msg.get_srcComponent()) != (1, 1):
+                    continue
                 if msg.get_type() in kinds and (condition is None or condition(msg)):
                     return msg
             if self.clock.now_s() >= end:
@@ -107,19 +132,34 @@ class GcsPeer:
                             timeout_s=timeout_s)
 
     def arm(self, force: bool = False) -> Any | None:
-        """Arm; returns the COMMAND_ACK."""
-        return self.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196 if force else 0)
+        """Arm (force: ArduPilot's magic 2989); returns the COMMAND_ACK."""
+        return self.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1, 2989 if force else 0)
+
+    def param(self, name: str, timeout_s: float = 2.0) -> Any | None:
+        """PARAM_REQUEST_READ by name; returns the PARAM_VALUE."""
+        self._unseen.clear()
+        self.conn.mav.param_request_read_send(1, 1, name.encode(), -1)
+        return self.wait_for("PARAM_VALUE", timeout_s, lambda m: m.param_id == name)
 
     def close(self) -> None:
         """Close the mavutil connection."""
         self.conn.close()
 
 
+def vehicle_config(*, origin: tuple[float, float, float] | None = ORIGIN, params: dict[str, float] | None = None,
+                   autopilot: dict[str, Any] | None = None, **kwargs: Any) -> VehicleConfig:
+    """A VehicleConfig whose autopilot has an EKF origin (None: none) and parameter overrides."""
+    ap = AutopilotConfig(origin=origin, params=dict(params or {}), **(autopilot or {}))
+    return VehicleConfig(autopilot=ap, **kwargs)
+
+
 @contextmanager
 def running_vehicle(world: Any = None, **kwargs: Any) -> Iterator[tuple[VehicleSimulator, GcsPeer]]:
-    """A started simulator on a free UDP port and a GCS peer that has said hello."""
+    """A started simulator on a free UDP port and a GCS peer that has said hello
+    (default config: :func:`vehicle_config`, with an EKF origin)."""
     clock = SimClock(stall_timeout_s=30.0)
     listen = kwargs.pop("listen", "udp:127.0.0.1:0")
+    kwargs.setdefault("config", vehicle_config())
     sim = VehicleSimulator(world, clock=clock, listen=listen, **kwargs)
     kind = listen.split(":", 1)[0]
     peer: GcsPeer | None = None

@@ -7,9 +7,8 @@ import math
 from pymavlink import mavwp
 
 from sim_harness.autopilot.autopilot import Mode
-from sim_harness.simulator import VehicleConfig
 from sim_harness.vehicle.sensors import FlatSeabed
-from tests.sim_harness.autopilot.gcs_peer import M, running_vehicle
+from tests.sim_harness.autopilot.gcs_peer import M, running_vehicle, vehicle_config
 
 
 def test_heartbeat_is_an_ardupilot_submarine_on_mavlink2():
@@ -24,7 +23,7 @@ def test_heartbeat_is_an_ardupilot_submarine_on_mavlink2():
 
 
 def test_gcs_switches_modes_and_sees_them_in_the_heartbeat():
-    with running_vehicle(config=VehicleConfig(start_depth_m=3.0)) as (_sim, gcs):
+    with running_vehicle(config=vehicle_config(start_depth_m=3.0)) as (_sim, gcs):
         for mode in (Mode.STABILIZE, Mode.ALT_HOLD, Mode.POSHOLD, Mode.GUIDED, Mode.SURFTRAK):
             ack = gcs.set_mode(int(mode))
             assert ack is not None and ack.result == M.MAV_RESULT_ACCEPTED, mode
@@ -65,7 +64,7 @@ def _upload(gcs, items) -> int:
 
 def test_mission_upload_download_and_auto_flight():
     world = FlatSeabed(15.0)
-    with running_vehicle(world, config=VehicleConfig(start_depth_m=2.0)) as (sim, gcs):
+    with running_vehicle(world, config=vehicle_config(start_depth_m=2.0)) as (sim, gcs):
         items = _waypoints(47.0, 8.0)
         assert _upload(gcs, items) == M.MAV_MISSION_ACCEPTED
         # Download with pymavlink's own mission loader conventions.
@@ -81,9 +80,13 @@ def test_mission_upload_download_and_auto_flight():
         gcs.mav.mission_ack_send(1, 1, M.MAV_MISSION_ACCEPTED, M.MAV_MISSION_TYPE_MISSION)
         home = loader.wp(0)
         assert (home.x, home.y) == (470000000, 80000000)  # item 0 is home
+        # ArduSub 4.5 (AP_Mission::mission_cmd_to_mavlink_int) sends the frames back without
+        # _INT: relative-alt 6 as 3, terrain 11 as 10.
         for seq in (1, 2, 3):
             got, sent = loader.wp(seq), items[seq]
-            assert (got.x, got.y, got.z, got.frame) == (sent.x, sent.y, sent.z, sent.frame)
+            frame = {M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: M.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                     M.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: M.MAV_FRAME_GLOBAL_TERRAIN_ALT}[sent.frame]
+            assert (got.x, got.y, got.z, got.frame) == (sent.x, sent.y, sent.z, frame)
 
         assert gcs.arm().result == M.MAV_RESULT_ACCEPTED
         assert gcs.set_mode(int(Mode.AUTO)).result == M.MAV_RESULT_ACCEPTED
@@ -101,7 +104,7 @@ def test_mission_upload_download_and_auto_flight():
 
 
 def test_telemetry_at_default_rates_and_set_message_interval():
-    with running_vehicle(config=VehicleConfig(start_depth_m=4.0)) as (sim, gcs):
+    with running_vehicle(config=vehicle_config(start_depth_m=4.0)) as (sim, gcs):
         gcs.pump()
         msgs = gcs.run_for(10.0)
         att = [m for m in msgs if m.get_type() == "ATTITUDE"]
@@ -124,7 +127,7 @@ def test_telemetry_at_default_rates_and_set_message_interval():
 
 
 def test_the_same_over_tcp():
-    with running_vehicle(listen="tcp:127.0.0.1:0", config=VehicleConfig(start_depth_m=2)) as (
+    with running_vehicle(listen="tcp:127.0.0.1:0", config=vehicle_config(start_depth_m=2)) as (
         _sim, gcs,
     ):
         hb = gcs.wait_for("HEARTBEAT", 2.0)

@@ -43,7 +43,7 @@ def test_sim_vehicle_command_serves_a_submarine(kind):
         for _ in range(int(WAIT_WALL_S / HEARTBEAT_WALL_S)):  # a GCS says hello at 1 Hz
             conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
             hb = conn.recv_match(type="HEARTBEAT", blocking=True, timeout=HEARTBEAT_WALL_S)
-            if hb is not None:
+            if hb is not None and hb.get_srcComponent() == 1:  # not BlueOS's services (component 194)
                 break
         assert hb is not None and hb.type == M.MAV_TYPE_SUBMARINE
         conn.mav.command_long_send(1, 1, M.MAV_CMD_DO_SET_MODE, 0,

@@ -6,6 +6,7 @@ import threading
 
 import pytest
 
+from sim_harness.autopilot.autopilot import AutopilotConfig
 from sim_harness.clock import SimClock
 from sim_harness.errors import ClockStopped, LockstepStall, SimConfigError
 from sim_harness.simulator import VehicleConfig, VehicleSimulator
@@ -146,7 +147,9 @@ def test_paced_clock_still_advances_to_the_target():
 
 def test_same_seed_same_trajectory():
     def trajectory(seed: int) -> list[tuple[float, ...]]:
-        sim = VehicleSimulator(config=VehicleConfig(seed=seed, start_depth_m=3.0))
+        # No joystick on this bench: the pilot-input failsafe (FS_PILOT_INPUT) is off.
+        sim = VehicleSimulator(config=VehicleConfig(seed=seed, start_depth_m=3.0,
+                                                    autopilot=AutopilotConfig(params={"FS_PILOT_INPUT": 0})))
         ap = sim.autopilot
         sim.run_for(0.1)
         ap.arm(force=True)
