@@ -33,6 +33,9 @@ from perception.heights.results import TargetHeight
 from perception.heights.rounded import RoundedTopFit, fit_rounded_top, grazing_tan2
 from perception.tracking.tracker import Detection
 
+#: Recordings up to this many frames have a reason for every frame a target is missing from.
+EVERY_FRAME_UP_TO = 20
+
 
 class TargetSolver:
     """Solves targets' heights (module docstring).
@@ -90,7 +93,7 @@ class TargetSolver:
             seen = len({d.frame_index for d in detections})
             total = f" of {n_frames}" if n_frames is not None else ""
             reason = (f"complete shadow in {len(usable)}{total} frame(s), {cfg.min_frames} needed (seen in {seen}): "
-                      + "; ".join(f"frame {i}: {why}" for i, why in frame_reasons))
+                      + summarise_frame_reasons(frame_reasons))
         else:
             try:
                 estimate = self.height_of(usable, shared)
@@ -158,10 +161,21 @@ class TargetSolver:
     def _frame_reasons(
         detections: list[Detection], usable: list[Detection], n_frames: int | None
     ) -> list[tuple[int, str]]:
-        """Per frame without a usable shadow of the target: (frame index, why)."""
+        """Per frame without a usable shadow of the target: (frame index, why).
+
+        Every frame of a short recording (up to ``EVERY_FRAME_UP_TO``: the ``heights``
+        command's few files); in a long one (a dive) only the frames from the target's
+        first detection to its last: the thousands of frames before and after, where it
+        was out of view, say nothing about it.
+        """
         by_frame = {d.frame_index: d for d in detections}
         kept = {d.frame_index for d in usable}
-        frames = range(n_frames) if n_frames is not None else sorted(by_frame)
+        if n_frames is not None and n_frames <= EVERY_FRAME_UP_TO:
+            frames: range | list[int] = range(n_frames)
+        elif by_frame:
+            frames = range(min(by_frame), max(by_frame) + 1)
+        else:
+            frames = []
         out = []
         for i in frames:
             if i in kept:
@@ -330,3 +344,19 @@ class TargetSolver:
             ref_altitude_m=h0,
             ref_altitude_std_m=h0_std,
         )
+
+
+def summarise_frame_reasons(frame_reasons: list[tuple[int, str]], *, max_groups: int = 6) -> str:
+    """One line for a target's per-frame reasons: runs of frames with the same reason
+    joined (``frames 3-7: ...``), at most ``max_groups`` of them, then how many more."""
+    groups: list[tuple[int, int, str]] = []
+    for i, why in frame_reasons:
+        if groups and groups[-1][2] == why and groups[-1][1] == i - 1:
+            groups[-1] = (groups[-1][0], i, why)
+        else:
+            groups.append((i, i, why))
+    parts = [f"frame {a}: {why}" if a == b else f"frames {a}-{b}: {why}" for a, b, why in groups[:max_groups]]
+    if len(groups) > max_groups:
+        rest = sum(b - a + 1 for a, b, _ in groups[max_groups:])
+        parts.append(f"and {rest} more frame(s)")
+    return "; ".join(parts)

@@ -35,6 +35,9 @@ REQUIRED_COLUMNS: Mapping[str, tuple[str, ...]] = {
     "targets.csv": ("id", "north_m", "east_m", "height_m"),
 }
 
+#: A run folder's CSV fields may be long (a target's reason), up to this many characters.
+MAX_CSV_FIELD = 16 * 1024 * 1024
+
 
 class RunFolderError(ValueError):
     """A run-folder file is malformed; ``path`` names it, ``line`` the line (1-based) if known."""
@@ -126,6 +129,8 @@ def read_series(path: Path) -> Series | None:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise RunFolderError(path, f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    if csv.field_size_limit() < MAX_CSV_FIELD:
+        csv.field_size_limit(MAX_CSV_FIELD)
     rows = list(csv.reader(text.splitlines()))
     if not rows:
         return Series(path, {}, {}, 0, (f"{path.name} is empty (no header)",))
