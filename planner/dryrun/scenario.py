@@ -52,7 +52,7 @@ from sim_harness.peers import TopsidePilot
 from sim_harness.vehicle.dynamics import AttitudeDisturbance
 from sim_harness.vehicle.sensors import SensorConfig
 
-BUILTIN_SCENARIOS = ("paper-targets",)
+BUILTIN_SCENARIOS = ("paper-targets", "harbour-field")
 
 _SCENARIO_KEYS = {"name", "description", "scene", "area", "survey", "vehicle", "executor", "faults", "current",
                   "sensors", "attitude", "autopilot", "topside"}

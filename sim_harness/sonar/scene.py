@@ -32,10 +32,10 @@ roughness = 0.3
 
 [[targets]]
 id = "T1"
-shape = "box"                    # box | cylinder | stone | rock
+shape = "box"                    # box | cylinder | stone | rock | pipe (lying, along yaw_deg)
 north_m = 3.0
 east_m = 0.5
-length_m = 0.19                  # box, stone, rock (cylinder: diameter_m)
+length_m = 0.19                  # box, stone, rock, pipe (cylinder: diameter_m; pipe: diameter_m too)
 width_m = 0.19
 height_m = 0.028
 yaw_deg = 0.0                    # optional
@@ -265,11 +265,18 @@ def _parse_target(ctx: _Ctx, value: Any, i: int) -> TargetSpec:
     shape = ctx.string(t, "shape", key)
     if shape not in SHAPES:
         raise ctx.fail(f"{key}.shape", f"unknown shape {shape!r}; known: {', '.join(SHAPES)}")
+    height: float | None = None
     if shape == "cylinder":
         for bad in ("length_m", "width_m"):
             if bad in t:
                 raise ctx.fail(f"{key}.{bad}", "a cylinder takes diameter_m, not length/width")
         length = width = ctx.number(t, "diameter_m", key, positive=True)
+    elif shape == "pipe":
+        for bad in ("width_m", "height_m"):
+            if bad in t:
+                raise ctx.fail(f"{key}.{bad}", "a pipe takes length_m and diameter_m (its height)")
+        length = ctx.number(t, "length_m", key, positive=True)
+        width = height = ctx.number(t, "diameter_m", key, positive=True)
     else:
         if "diameter_m" in t:
             raise ctx.fail(f"{key}.diameter_m", f"a {shape} takes length_m and width_m")
@@ -283,7 +290,7 @@ def _parse_target(ctx: _Ctx, value: Any, i: int) -> TargetSpec:
             east_m=ctx.number(t, "east_m", key),
             length_m=length,
             width_m=width,
-            height_m=ctx.number(t, "height_m", key, positive=True),
+            height_m=height if height is not None else ctx.number(t, "height_m", key, positive=True),
             yaw_rad=math.radians(ctx.number(t, "yaw_deg", key, default=0.0)),
             material=ctx.string(t, "material", key, "concrete"),
             seed=ctx.integer(t, "seed", key, 0),

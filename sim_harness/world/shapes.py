@@ -21,6 +21,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sim_harness.world.pipe import PipeSolid, pipe_batch
+
 FloatArray = NDArray[np.float64]
 
 _NO_HIT = np.inf
@@ -207,7 +209,7 @@ class CompositeSolid:
         return best_t, best_n
 
 
-Solid = BoxSolid | CylinderSolid | EllipsoidSolid | CompositeSolid
+Solid = BoxSolid | CylinderSolid | EllipsoidSolid | CompositeSolid | PipeSolid
 
 
 # ---------------------------------------------------------------------------- batches
@@ -382,6 +384,7 @@ _BATCH_KERNELS: tuple[tuple[type, _Kernel], ...] = (
     (CylinderSolid, _cylinder_batch),
     (EllipsoidSolid, _ellipsoid_batch),
     (CompositeSolid, _composite_batch),
+    (PipeSolid, pipe_batch),
 )
 
 

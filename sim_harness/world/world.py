@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sim_harness.world.errors import WorldError
+from sim_harness.world.pipe import PipeSolid
 from sim_harness.world.shapes import BoxSolid, CompositeSolid, CylinderSolid, EllipsoidSolid, Solid
 from sim_harness.world.texture import SeabedTexture
 
@@ -42,7 +43,7 @@ SPECULAR_WIDTH_RAD = math.radians(12.0)
 #: Steepest relief slope accepted as "gentle" (rise over run).
 MAX_RELIEF_SLOPE = 0.25
 #: Shapes a target may have.
-SHAPES = ("box", "cylinder", "stone", "rock")
+SHAPES = ("box", "cylinder", "stone", "rock", "pipe")
 
 
 def _finite(value: float, key: str, *, positive: bool = False, nonneg: bool = False) -> float:
@@ -272,7 +273,9 @@ class TargetSpec:
     ``shape`` is one of :data:`SHAPES`: ``box`` (length x width x height, yaw),
     ``cylinder`` (vertical; diameter = ``length_m``), ``stone`` (a half-ellipsoid of
     length x width x height) or ``rock`` (an irregular union of 3-5 ellipsoids inside the
-    length x width footprint, the tallest exactly ``height_m``; ``seed`` shapes it).
+    length x width footprint, the tallest exactly ``height_m``; ``seed`` shapes it) or
+    ``pipe`` (a pipe section lying on the seabed along ``yaw``: ``length_m`` long, its
+    diameter ``height_m``; ``width_m`` is ignored).
     """
 
     target_id: str
@@ -404,6 +407,8 @@ class World:
             elif spec.shape == "cylinder":
                 solid = CylinderSolid(spec.north_m, spec.east_m, base, spec.length_m / 2,
                                       spec.height_m, footing)
+            elif spec.shape == "pipe":
+                solid = PipeSolid(spec.north_m, spec.east_m, base, spec.length_m, spec.height_m / 2, spec.yaw_rad)
             elif spec.shape == "stone":
                 solid = EllipsoidSolid(spec.north_m, spec.east_m, base, spec.length_m,
                                        spec.width_m, spec.height_m, spec.yaw_rad)
