@@ -1,5 +1,7 @@
 """The simulated sonar as the controller's sonar source: frames pinged in the simulator,
-rendered in the caller's thread, carrying what the vehicle knew at the ping (never truth)."""
+rendered in the caller's thread or ahead in a child process
+(:mod:`sim_harness.render_worker`), delivered a fixed latency after the ping,
+carrying what the vehicle knew at the ping (never truth)."""
 
 from __future__ import annotations
 
@@ -32,11 +34,20 @@ def default_pose_factory(**fields: float) -> Any:
 class SimulatedSonar:
     """The forward-looking sonar on the tilt mount, as a sonar source.
 
-    The simulator records the true sonar pose at each frame time; :meth:`poll` renders the
-    frames due by ``now_s`` in the caller's thread (so rendering cost never slows the
-    simulated vehicle) and returns them oldest first, exactly what a sonar driver's
-    ``poll(now_s)`` would give. Up to ``max_pending`` frames are buffered; older ones are
-    lost (counted in ``frames_overrun``), as with a real driver's buffer.
+    The simulator records the true sonar pose at each frame time; :meth:`poll` returns the
+    frames pinged at least ``latency_s`` before ``now_s``, oldest first, exactly what a
+    sonar driver's ``poll(now_s)`` would give. Without a ``worker`` they are rendered in
+    the caller's thread when polled (so rendering cost never slows the simulated vehicle);
+    with one (:class:`sim_harness.render_worker.RenderWorker`) each is queued there
+    at its ping and rendered while the controller works, which pays when ``latency_s`` is
+    longer than the controller's cycle. The frames are the same either way. Up to
+    ``max_pending`` frames are buffered; older ones are lost (counted in
+    ``frames_overrun``), as with a real driver's buffer.
+
+    ``latency_s`` is the time from the ping to its frame in the driver: a real ARIS frame
+    is complete only after its last beam group has fired (about one ping period), then
+    crosses the tether's Ethernet and the SDK; the controller sees it that much later and
+    stamps it with the ping time.
     """
 
     def __init__(
@@ -49,14 +60,19 @@ class SimulatedSonar:
         rng: np.random.Generator,
         max_pending: int,
         on_truth: Callable[[float, Any], None],
+        latency_s: float = 0.0,
+        worker: Any | None = None,
     ) -> None:
         self._renderer = renderer
+        self._worker = worker
+        self.latency_s = float(latency_s)
         self.frame_interval_s = 1.0 / frame_rate_hz
         self._pose_factory = pose_factory
         self._faults = faults
         self._rng = rng
+        # (ping time, true pose, known pose, the worker's job number or -1)
         self._pending: collections.deque[
-            tuple[float, dict[str, float], dict[str, float]]
+            tuple[float, dict[str, float], dict[str, float], int]
         ] = collections.deque()
         self._max_pending = max_pending
         self._lock = threading.Lock()
@@ -82,25 +98,34 @@ class SimulatedSonar:
         if self._faults.sonar_drop and self._rng.random() < self._faults.sonar_drop:
             self.frames_dropped += 1
             return
+        seq = self._worker.submit(t_s, pose_fields) if self._worker is not None else -1
         with self._lock:
-            self._pending.append((t_s, pose_fields, known_fields))
+            self._pending.append((t_s, pose_fields, known_fields, seq))
             while len(self._pending) > self._max_pending:
                 self._pending.popleft()
                 self.frames_overrun += 1
 
     def poll(self, now_s: float) -> list[Any]:
-        """Frames pinged at or before ``now_s`` not yet returned, oldest first."""
+        """Frames pinged at or before ``now_s - latency_s`` not yet returned, oldest first."""
         with self._lock:
             due = []
-            while self._pending and self._pending[0][0] <= now_s + 1e-9:
+            while self._pending and self._pending[0][0] + self.latency_s <= now_s + 1e-9:
                 due.append(self._pending.popleft())
         frames = []
-        for t_s, pose_fields, known_fields in due:
-            frame, truth = self._renderer.render(self._pose_factory(**pose_fields), t_s)
+        for t_s, pose_fields, known_fields, seq in due:
+            if self._worker is not None:
+                frame, truth = self._worker.result(seq)
+            else:
+                frame, truth = self._renderer.render(self._pose_factory(**pose_fields), t_s)
             self._on_truth(t_s, truth)
             frames.append(_stamp_known(frame, known_fields))
         self.frames_delivered += len(frames)
         return frames
+
+    def close(self) -> None:
+        """Stop the render process, if there is one."""
+        if self._worker is not None:
+            self._worker.close()
 
 
 def _stamp_known(frame: Any, known: dict[str, float]) -> Any:

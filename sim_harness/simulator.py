@@ -28,7 +28,6 @@ depth, altitude, attitude and position, and the mount angle); truth goes only to
 from __future__ import annotations
 
 import collections
-import dataclasses
 import math
 import threading
 from collections.abc import Callable
@@ -44,6 +43,7 @@ from sim_harness.clock import SimClock
 from sim_harness.errors import ClockStopped, SimConfigError
 from sim_harness.faults import FaultConfig
 from sim_harness.peers import BlueOsServices, LocalPeer, PeerConfig
+from sim_harness.render_worker import RenderWorker, strip_label_images
 from sim_harness.simulated_sonar import SimulatedSonar, SonarRendererLike, default_pose_factory
 from sim_harness.vehicle.dynamics import (
     AttitudeDisturbance,
@@ -88,6 +88,10 @@ class VehicleConfig:
     autopilot: AutopilotConfig = field(default_factory=AutopilotConfig)
     sonar_frame_rate_hz: float = 10.0
     max_pending_frames: int = 32  # sonar frames buffered for a slow consumer
+    #: From a ping to its frame in the driver, s (:class:`SimulatedSonar`).
+    sonar_latency_s: float = 0.0
+    #: Render pings in a child process as they are pinged (:mod:`sim_harness.render_worker`).
+    sonar_render_process: bool = False
     truth_log_interval_s: float = 0.1
     truth_log_length: int = 100_000
     keep_label_images: bool = False  # keep each sonar frame's label images in the truth log
@@ -101,6 +105,8 @@ class VehicleConfig:
             raise SimConfigError(f"must be in (0, 0.1] s, got {self.step_s}", key="step_s")
         if not self.sonar_frame_rate_hz > 0.0:
             raise SimConfigError("must be positive", key="sonar_frame_rate_hz")
+        if not 0.0 <= self.sonar_latency_s <= 2.0:
+            raise SimConfigError(f"must be in [0, 2] s, got {self.sonar_latency_s}", key="sonar_latency_s")
         if self.max_pending_frames < 1:
             raise SimConfigError("must be >= 1", key="max_pending_frames")
 
@@ -200,11 +206,15 @@ class VehicleSimulator:
         self._peer_parser.robust_parsing = True
         self.sonar: SimulatedSonar | None = None
         if sonar_renderer is not None:
+            worker = None
+            if cfg.sonar_render_process:
+                worker = RenderWorker(sonar_renderer, pose_factory or default_pose_factory,
+                                      keep_label_images=cfg.keep_label_images)
             self.sonar = SimulatedSonar(
                 sonar_renderer, frame_rate_hz=cfg.sonar_frame_rate_hz,
                 pose_factory=pose_factory or default_pose_factory, faults=self.faults,
                 rng=np.random.default_rng(seeds[1]), max_pending=cfg.max_pending_frames,
-                on_truth=self._record_sonar_truth,
+                on_truth=self._record_sonar_truth, latency_s=cfg.sonar_latency_s, worker=worker,
             )
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
@@ -307,9 +317,11 @@ class VehicleSimulator:
         self.close()
 
     def close(self) -> None:
-        """Close the socket."""
+        """Close the socket (and stop the sonar's render process)."""
         if self.port is not None:
             self.port.close()
+        if self.sonar is not None:
+            self.sonar.close()
 
     def __enter__(self) -> VehicleSimulator:
         return self
@@ -369,10 +381,10 @@ class VehicleSimulator:
         self.sonar.capture(t_s, pose, known)
 
     def _record_sonar_truth(self, t_s: float, truth: Any) -> None:
-        if not self.config.keep_label_images and hasattr(truth, "labels"):
+        if not self.config.keep_label_images:
             # Per-target truth is small; the label images (two n_samples x n_beams arrays a
             # frame) would grow to gigabytes over a dive: keep them only when asked.
-            truth = dataclasses.replace(truth, labels=truth.labels[:0, :0], owner=truth.owner[:0, :0])
+            truth = strip_label_images(truth)
         with self._truth_lock:
             self._sonar_truths.append((t_s, truth))
 

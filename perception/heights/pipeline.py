@@ -38,7 +38,7 @@ from perception.heights.detect import detect_shadows, frame_detections
 from perception.heights.models import OnsetAltitude, altitude_groups, onset_altitude, top_echo_slope_db_per_m
 from perception.heights.reference import onset_reference_altitude, shared_reference_altitude
 from perception.heights.results import FrameResult, TargetHeight
-from perception.heights.target_solve import TargetSolver
+from perception.heights.target_solve import EVERY_FRAME_UP_TO, TargetSolver
 from perception.sonar_io.frame import SonarFrame
 from perception.tracking.tracker import TargetTracker
 
@@ -72,6 +72,8 @@ class HeightPipeline:
         self._onsets: list[OnsetAltitude] = []
         self._sample_m: dict[int, float] = {}
         self._targets_cache: tuple[int, list[TargetHeight]] | None = None
+        # per track: what its answer depends on, the frame count then, the answer
+        self._solved: dict[int, tuple[tuple[object, ...], int, TargetHeight]] = {}
         self._solver = TargetSolver(self.config, self._sample_m)
 
     @property
@@ -150,16 +152,41 @@ class HeightPipeline:
         """Every target so far with its height (or the reason there is none).
 
         Solved once per frame added: a second call before the next frame returns the same
-        estimates without solving again (the pitch loop asks several times a second).
+        estimates without solving again (the pitch loop asks several times a second). A
+        track is solved again only when something its answer depends on has changed
+        (:meth:`_solve_key`): most tracks of a dive are behind the vehicle, their answers
+        fixed.
         """
         if self._targets_cache is not None and self._targets_cache[0] == self._n_frames:
             return list(self._targets_cache[1])
         tracks = self._tracker.tracks
         shared = self.shared_reference_altitude() if self.config.shared_altitude else None
-        solved = [self._solver.solve(track.track_id, track.detections, shared, track.position_m()[:2],
-                                     n_frames=self._n_frames) for track in tracks]
+        solved = []
+        for track in tracks:
+            position = track.position_m()[:2]
+            key = self._solve_key(track.detections, shared, position)
+            memo = self._solved.get(track.track_id)
+            if memo is not None and memo[0] == key and (memo[2].height_m is not None or memo[1] == self._n_frames):
+                solved.append(memo[2])
+                continue
+            answer = self._solver.solve(track.track_id, track.detections, shared, position, n_frames=self._n_frames)
+            self._solved[track.track_id] = (key, self._n_frames, answer)
+            solved.append(answer)
         self._targets_cache = (self._n_frames, solved)
         return list(solved)
+
+    def _solve_key(self, detections: list, shared: tuple[float, float] | None,
+                   position: tuple[float, float]) -> tuple[object, ...]:
+        """What :meth:`TargetSolver.solve`'s answer for a track depends on: its detections
+        (appended in frame order, so their count and ends name them), its position, the
+        shared reference altitude (only when a frame lacks an absolute altitude), and the
+        frame count in a short recording's per-frame reasons. (A target without a height
+        is solved again every frame: its reason may say "of N frames".)"""
+        needs_shared = not all(math.isfinite(d.altitude_m) for d in detections)
+        counts_frames = self._n_frames <= EVERY_FRAME_UP_TO
+        ends = (detections[0].frame_index, detections[-1].frame_index) if detections else ()
+        return (len(detections), ends, id(detections[-1]) if detections else 0, tuple(position),
+                shared if needs_shared else None, self._n_frames if counts_frames else None)
 
     def onset_reference_altitude(self) -> tuple[float, float] | None:
         """The first frame's altitude and its 1-sigma from the seabed onsets, m

@@ -53,6 +53,13 @@ from sim_harness.vehicle.dynamics import UniformCurrent
 from vehicle_link.client import ArduSubClient
 from vehicle_link.config import DEFAULT_MESSAGE_INTERVALS_S, LinkConfig
 
+#: From a ping to its frame on the companion, s: an ARIS frame is complete when its last
+#: beam group has fired (about one ping period at 10 Hz), then crosses the tether's
+#: Ethernet and the SDK. Longer than the controller's 0.2 s cycle, so the simulator's
+#: render process (:mod:`sim_harness.render_worker`) draws the next pings while the
+#: controller works on the last ones.
+SONAR_LATENCY_S = 0.25
+
 #: The mount's angle report every 0.1 s (the link's default, 0.5 s, leaves the frames'
 #: tilt stamp several degrees behind while the pitch loop slews the mount).
 MOUNT_STATUS_PERIOD_S = 0.1
@@ -176,7 +183,8 @@ def run_dry_dive(
                              start_yaw_rad=scenario.start_heading_rad, seed=scenario.seed,
                              sensors=scenario.sensors, disturbance=scenario.attitude,
                              autopilot=AutopilotConfig(origin=None, params=dict(scenario.autopilot_params)),
-                             peers=(BlueOsServices(),) + ((scenario.topside,) if scenario.topside else ())),
+                             peers=(BlueOsServices(),) + ((scenario.topside,) if scenario.topside else ()),
+                             sonar_latency_s=SONAR_LATENCY_S, sonar_render_process=True),
         faults=faults, clock=clock, listen="udp:127.0.0.1:0", sonar_renderer=renderer,
         current=UniformCurrent(scenario.current_north_m_s, scenario.current_east_m_s),
     )

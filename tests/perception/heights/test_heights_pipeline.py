@@ -166,3 +166,29 @@ def test_one_target_has_no_shared_altitude(rng: np.random.Generator) -> None:
     assert pipeline.shared_reference_altitude() is None
     (target,) = pipeline.targets()
     assert target.height_m is not None  # solved on its own
+
+
+def test_a_track_is_solved_again_only_when_its_answer_can_change(
+        rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A long recording (past the per-frame reasons of a short one) where two of the three
+    # targets leave the view: their answers are kept, and every answer equals a fresh solve.
+    from perception.heights.target_solve import EVERY_FRAME_UP_TO, TargetSolver
+
+    pipeline = HeightPipeline()
+    calls: list[int] = []
+    solve = pipeline._solver.solve
+    monkeypatch.setattr(pipeline._solver, "solve", lambda *a, **k: calls.append(a[0]) or solve(*a, **k))
+    n_all = EVERY_FRAME_UP_TO + 3
+    for i in range(n_all + 6):
+        boxes = BOXES if i < n_all else BOXES[:1]
+        pipeline.add_frame(_frame(rng, (0.5, 0.6)[i % 2], boxes=boxes)[0])
+        before = len(calls)
+        answers = pipeline.targets()
+        fresh_solver = TargetSolver(pipeline.config, pipeline._sample_m)
+        shared = pipeline.shared_reference_altitude()
+        fresh = [fresh_solver.solve(t.track_id, t.detections, shared, t.position_m()[:2], n_frames=pipeline.n_frames)
+                 for t in pipeline._tracker.tracks]
+        assert [repr(a) for a in answers] == [repr(f) for f in fresh]
+        if i > n_all:  # only the target still in view is solved again
+            assert len(calls) - before == 1
+    assert sum(1 for t in pipeline.targets() if t.height_m is not None) == 3
