@@ -34,8 +34,9 @@ from sim_harness.sonar.physics import SonarPhysics, elevation_gain, sigma_over_c
 from sim_harness.sonar.seabed import SeabedBranch
 from sim_harness.sonar.truth import TargetTruth
 from sim_harness.world.errors import SonarConfigError
+from sim_harness.world.materials import SPECULAR_GAIN, SPECULAR_WIDTH_RAD
 from sim_harness.world.shapes import intersect_batch, solid_kinds
-from sim_harness.world.world import SPECULAR_GAIN, SPECULAR_WIDTH_RAD, World
+from sim_harness.world.world import World
 
 FloatArray = np.ndarray
 
