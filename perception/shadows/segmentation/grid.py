@@ -9,9 +9,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
+
+from perception import imaging
 
 #: More outer contours than this (a speckled mask) switch to a labelling pass.
 MAX_CONTOURS = 200
@@ -62,11 +63,9 @@ def _new_region(**values: object) -> Region:
 
 def clean_mask(mask: NDArray[np.uint8], *, open_size: int, close_size: int) -> NDArray[np.uint8]:
     if open_size > 1:
-        kernel = np.ones((open_size, open_size), np.uint8)
-        mask = np.asarray(cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel), dtype=np.uint8)
+        mask = imaging.morph_open(mask, open_size)
     if close_size > 1:
-        kernel = np.ones((close_size, close_size), np.uint8)
-        mask = np.asarray(cv2.morphologyEx(mask, cv2.MORPH_CLOSE, kernel), dtype=np.uint8)
+        mask = imaging.morph_close(mask, close_size)
     return mask
 
 
@@ -85,21 +84,21 @@ def components(
         0 = none, 1.. = kept regions.
     regions : tuple of Region
     """
-    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    contours = imaging.external_contours(mask)
     if len(contours) > MAX_CONTOURS:
         labels_by_pass, regions_by_pass, _ = grid_components(mask, kind=kind, min_area_px=min_area_px)
         return labels_by_pass, regions_by_pass
     labels = np.zeros(mask.shape, dtype=np.int32)
     regions: list[Region] = []
     for i, contour in enumerate(contours):
-        x, y, w, h = cv2.boundingRect(contour)
+        x, y, w, h = imaging.bounding_box(contour)
         if w * h < min_area_px:
             continue
         new = len(regions) + 1
-        cv2.drawContours(labels, contours, i, new, thickness=-1)
+        imaging.draw_filled_contour(labels, contours, i, new)
         rows, cols = np.nonzero(labels[y : y + h, x : x + w] == new)
         if rows.size < min_area_px:
-            cv2.drawContours(labels, contours, i, 0, thickness=-1)
+            imaging.draw_filled_contour(labels, contours, i, 0)
             continue
         regions.append(
             Region(
@@ -154,7 +153,7 @@ def label_mask(mask: NDArray[np.bool_]) -> LabelledMask:
     mask : ndarray, shape (n_rows, n_cols), bool, C-contiguous
     """
     n_cols = mask.shape[1]
-    # The nonzero of a bool array is many times faster than of uint8 (or cv2.findNonZero).
+    # The nonzero of a bool array is many times faster than of uint8 (or OpenCV's findNonZero).
     pixels = mask.ravel().nonzero()[0]
     if pixels.size == 0:
         empty = np.zeros(0, dtype=np.int64)
@@ -167,9 +166,7 @@ def label_mask(mask: NDArray[np.bool_]) -> LabelledMask:
     labels = np.empty(mask.shape, dtype=np.int32)
     labels[:r0] = 0
     labels[r1:] = 0
-    n, _ = cv2.connectedComponents(
-        mask[r0:r1].view(np.uint8), labels=labels[r0:r1], connectivity=8, ltype=cv2.CV_32S
-    )
+    n = imaging.label_components(mask[r0:r1].view(np.uint8), labels[r0:r1])
     rows, cols = np.divmod(pixels, n_cols)
     return LabelledMask(labels, int(n), rows, cols, labels.ravel().take(pixels), pixels)
 
