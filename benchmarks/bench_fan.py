@@ -18,7 +18,8 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from perception.mapping.fan import fan_geometry, frame_to_fan, polar_to_fan
+from perception.mapping.fan import frame_to_fan, polar_to_fan
+from perception.mapping.fan_geometry import fan_geometry
 from perception.sonar_io.beams import aris3000_128
 from perception.sonar_io.frame import SonarFrame
 

@@ -7,9 +7,9 @@ from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
-import cv2
 import numpy as np
 
+from perception import imaging
 from perception.mapping.mosaic import (
     MosaicConfig,
     ProjectedFrame,
@@ -51,7 +51,7 @@ def _dark_count(image: np.ndarray, start: int, stop: int, cols: slice, drop_leve
     # blur with one sample of the image's own context around the box, then crop
     r0, r1 = max(start - 1, 0), min(stop + 1, image.shape[0])
     c0, c1 = max(int(cols.start) - 1, 0), min(int(cols.stop) + 1, image.shape[1])
-    blurred = cv2.blur(np.asarray(image[r0:r1, c0:c1], dtype=np.float32), (3, 3))
+    blurred = imaging.box_mean(np.asarray(image[r0:r1, c0:c1], dtype=np.float32), 3, 3)
     box = blurred[start - r0 : stop - r0, int(cols.start) - c0 : int(cols.stop) - c0]
     return int(np.count_nonzero(box < (level - np.float32(drop_levels))[:, None]))
 

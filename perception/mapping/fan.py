@@ -18,19 +18,18 @@ interpolated from the azimuth, the row from the range. Pixels outside the fan (b
 first and last range sample and beam centre) take a fill value.
 
 The remap maps are built once per geometry and cached (:func:`functools.lru_cache` keyed on
-the geometry) and cut into bands that skip the wedge's empty corners; OpenCV is used only
-in :func:`_cv_fixed_point_maps` and :func:`_cv_remap`."""
+the geometry) and cut into bands that skip the wedge's empty corners; the sampling is
+:func:`perception.imaging.fixed_point_maps` and :func:`perception.imaging.remap_fixed_point`."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
 
-import cv2
 import numpy as np
 
+from perception import imaging
 from perception.errors import GeometryError
 from perception.mapping.fan_geometry import MAP_CACHE_SIZE, FanGeometry, float_maps
 from perception.sonar_io.frame import SonarFrame
@@ -68,7 +67,7 @@ def _remap_plan(geometry: FanGeometry, nearest: bool) -> tuple[_Band, ...]:
 
     Each band of ``_BAND_ROWS`` rows covers only the columns its rows have inside the fan,
     so the wedge's empty corners are never remapped (they keep the fill value): about
-    half the pixels of the bounding box, and the slow border path of cv2.remap, saved.
+    half the pixels of the bounding box, and the slow border path of OpenCV's remap, saved.
     """
     sample, beam = float_maps(geometry)
     outside = np.isnan(sample)
@@ -81,46 +80,13 @@ def _remap_plan(geometry: FanGeometry, nearest: bool) -> tuple[_Band, ...]:
         if cols.size == 0:
             continue
         col0, col1 = int(cols[0]), int(cols[-1]) + 1
-        map1, map2 = _cv_fixed_point_maps(
+        map1, map2 = imaging.fixed_point_maps(
             np.ascontiguousarray(map_x[row0:row1, col0:col1]),
             np.ascontiguousarray(map_y[row0:row1, col0:col1]),
             nearest=nearest,
         )
         bands.append(_Band(row0, row1, col0, col1, map1, map2))
     return tuple(bands)
-
-
-def _cv_fixed_point_maps(
-    map_x: np.ndarray, map_y: np.ndarray, *, nearest: bool
-) -> tuple[np.ndarray, np.ndarray | None]:
-    map1, map2 = cv2.convertMaps(map_x, map_y, cv2.CV_16SC2, nninterpolation=nearest)
-    map1.flags.writeable = False
-    if nearest or map2 is None or map2.size == 0:
-        return map1, None
-    map2.flags.writeable = False
-    return map1, map2
-
-
-def _cv_remap(
-    image: np.ndarray,
-    map1: np.ndarray,
-    map2: np.ndarray | None,
-    *,
-    nearest: bool,
-    fill: float,
-    out: np.ndarray,
-) -> np.ndarray:
-    interpolation_table: Any = map2  # None for nearest: OpenCV accepts it, its stubs do not
-    cv2.remap(
-        image,
-        map1,
-        interpolation_table,
-        cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR,
-        dst=out,
-        borderMode=cv2.BORDER_CONSTANT,
-        borderValue=fill,
-    )
-    return out
 
 
 def polar_to_fan(
@@ -169,7 +135,7 @@ def polar_to_fan(
     source = np.ascontiguousarray(arr)
     out = np.full(geometry.shape, fill, dtype=arr.dtype)
     for band in _remap_plan(geometry, nearest):
-        _cv_remap(
+        imaging.remap_fixed_point(
             source,
             band.map1,
             band.map2,

@@ -7,9 +7,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-import cv2
 import numpy as np
 
+from perception import imaging
 from perception.geodesy import LocalOrigin
 
 
@@ -120,12 +120,12 @@ def height_raster(
             pts = np.array(
                 [[(e / resolution_m - 0.5 - col0), (n / resolution_m - 0.5 - row0)] for n, e in t.footprint_ne_m]
             )
-            cv2.fillPoly(mask, [np.round(pts * 16).astype(np.int32)], 1, lineType=cv2.LINE_8, shift=4)
+            imaging.fill_polygon(mask, pts, 1)
         else:
             centre = (
                 int(round(t.east_m / resolution_m - 0.5 - col0)),
                 int(round(t.north_m / resolution_m - 0.5 - row0)),
             )
-            cv2.circle(mask, centre, 1, 1, -1)
+            imaging.fill_disc(mask, centre, 1, 1)
         raster[mask > 0] = t.height_m
     return raster

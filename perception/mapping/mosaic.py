@@ -2,7 +2,7 @@
 
 Each frame is projected onto the seabed plane by *inverse* mapping: every mosaic cell in
 the frame's footprint is traced back to the sonar (slant range, beam azimuth, elevation
-within the vertical aperture) and the polar image is sampled there with ``cv2.remap``. So
+within the vertical aperture) and the polar image is sampled there with :func:`perception.imaging.remap`. So
 there are no holes between beams or range samples, whatever the resolution.
 
 Cells are blended by a weighted mean. The weight favours well-insonified samples: the
@@ -30,9 +30,9 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
+from perception import imaging
 from perception.errors import GeometryError
 from perception.geometry import ray_direction_sonar, sonar_to_ned
 from perception.sonar_io.frame import SonarFrame
@@ -273,7 +273,7 @@ def project_frame(
     map_col = np.interp(azimuth.ravel(), beams, np.arange(beams.size, dtype=np.float32), left=-1, right=-1)
     map_col = map_col.reshape(rng.shape).astype(np.float32)
     image = np.asarray(frame.image, dtype=np.float32)
-    intensity = cv2.remap(image, map_col, map_row, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    intensity = imaging.remap(image, map_col, map_row, nearest=False)
     half = frame.elevation_aperture_rad / 2.0
     half_fan = max(abs(float(beams[0])), abs(float(beams[-1])))
     # |elevation| / half, from tan(elevation) = vz / horiz
@@ -300,8 +300,7 @@ def project_frame(
             codes[exclude_mask] = 1
         if unreliable_mask is not None:
             codes[unreliable_mask] |= 2
-        cell_codes = np.asarray(cv2.remap(codes, map_col, map_row, cv2.INTER_NEAREST,
-                                          borderMode=cv2.BORDER_CONSTANT, borderValue=0), dtype=np.uint8)
+        cell_codes = np.asarray(imaging.remap(codes, map_col, map_row, nearest=True), dtype=np.uint8)
         weight[(cell_codes & 1) > 0] = 0.0
         unreliable = (cell_codes & 2) > 0
     intensity[weight == 0] = 0.0

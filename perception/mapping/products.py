@@ -15,10 +15,10 @@ from pathlib import Path
 from typing import IO, Any
 from xml.sax.saxutils import escape as xml_escape
 
-import cv2
 import numpy as np
 import tifffile
 
+from perception import imaging
 from perception.atomic_file import atomic_write, atomic_write_text
 from perception.geodesy import LocalOrigin, geotiff_tags
 from perception.mapping.heights_layer import MappedTarget, height_raster, targets_feature_collection
@@ -110,16 +110,17 @@ def write_png_with_world_file(path: Path, raster: MapRaster, origin: LocalOrigin
     path = Path(path)
     grey = to_uint8(raster.intensity)
     alpha = np.where(np.isfinite(raster.intensity), 255, 0).astype(np.uint8)
-    ok, encoded = cv2.imencode(".png", np.dstack([grey, grey, grey, alpha]))
-    if not ok:
-        raise OSError(f"{path}: PNG encoding failed")
+    try:
+        encoded = imaging.encode_png(np.dstack([grey, grey, grey, alpha]))
+    except OSError:
+        raise OSError(f"{path}: PNG encoding failed") from None
     res = raster.resolution_m
     world = "\n".join(
         f"{v:.10f}"
         for v in (res, 0.0, 0.0, -res, raster.west_m + res / 2, raster.north_m - res / 2)
     )
     return [
-        atomic_write(path, lambda h: h.write(encoded.tobytes())),
+        atomic_write(path, lambda h: h.write(encoded)),
         atomic_write_text(path.with_suffix(".pgw"), world + "\n"),
         atomic_write_text(path.with_suffix(".prj"), origin.wkt() + "\n"),
         # GDAL (so QGIS) takes a PNG's coordinate system from its PAM side-car.

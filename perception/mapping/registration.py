@@ -37,9 +37,9 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-import cv2
 import numpy as np
 
+from perception import imaging
 from perception.mapping.mosaic import ProjectedFrame, TiledMosaic
 from perception.mapping.registration_config import RegistrationConfig, RegistrationResult
 
@@ -47,8 +47,8 @@ from perception.mapping.registration_config import RegistrationConfig, Registrat
 def _high_pass(image: np.ndarray, mask: np.ndarray, sigma_cells: float) -> np.ndarray:
     """``image`` minus its local mean inside ``mask`` (normalised convolution), 0 outside."""
     m = mask.astype(np.float32)
-    local = cv2.GaussianBlur(image * m, (0, 0), sigma_cells)
-    norm = cv2.GaussianBlur(m, (0, 0), sigma_cells)
+    local = imaging.gaussian_blur(image * m, sigma_cells)
+    norm = imaging.gaussian_blur(m, sigma_cells)
     out = np.zeros_like(image)
     np.divide(local, norm, out=out, where=norm > 1e-3)
     return (image - out) * m
@@ -68,7 +68,7 @@ def _outliers(image: np.ndarray, mask: np.ndarray, sigmas: float, spread: float)
     The image is smoothed over 2 cells first, so single dark speckle cells do not count;
     a shadow, many cells long, does.
     """
-    smooth = cv2.GaussianBlur(image, (0, 0), 2.0)
+    smooth = imaging.gaussian_blur(image, 2.0)
     values = smooth[mask]
     if values.size == 0 or spread <= 0:
         return np.zeros(image.shape, dtype=bool)
@@ -156,7 +156,7 @@ def measure_shift(
     # blurred) because a sharp common outline would pull the peak towards zero shift.
     margin = max(3, int(round(config.max_shift_m / res)))
     kernel = np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)
-    core = cv2.erode(both.astype(np.uint8), kernel)
+    core = imaging.erode(both.astype(np.uint8), kernel)
     if not np.any(core):
         return RegistrationResult(False, 0.0, 0.0, 0.0, overlap, "overlap too thin")
     sigma_hp = 4.0 * max(1.0, config.texture_scale_m / res)
@@ -168,24 +168,24 @@ def measure_shift(
         # One scale for both, the new frame's (speckle-dominated) spread: the reference,
         # averaged over many pings, is much smoother, and a bright marker's halo in it
         # would count as dark by its own spread.
-        scale = _robust_spread(cv2.GaussianBlur(a, (0, 0), 2.0), both)
+        scale = _robust_spread(imaging.gaussian_blur(a, 2.0), both)
         odd = _outliers(a, both, config.outlier_sigmas, scale) | _outliers(b, both, config.outlier_sigmas, scale)
         if np.any(odd):
             grow = max(1, int(round(config.outlier_margin_m / res)))
-            odd = cv2.dilate(odd.astype(np.uint8), np.ones((2 * grow + 1, 2 * grow + 1), np.uint8)) > 0
+            odd = imaging.dilate(odd.astype(np.uint8), np.ones((2 * grow + 1, 2 * grow + 1), np.uint8)) > 0
             both &= ~odd
-            core = cv2.erode(both.astype(np.uint8), kernel)
+            core = imaging.erode(both.astype(np.uint8), kernel)
             if np.count_nonzero(both) < config.min_overlap_fraction * footprint or not np.any(core):
                 return RegistrationResult(False, 0.0, 0.0, 0.0, overlap, "overlap is mostly objects")
             a = _high_pass(np.where(both, projected.intensity, 0).astype(np.float32), both, sigma_hp)
             b = _high_pass(np.where(both, ref, 0).astype(np.float32), both, sigma_hp)
-    apod = cv2.GaussianBlur(core.astype(np.float32), (0, 0), margin / 2.0)
+    apod = imaging.gaussian_blur(core.astype(np.float32), margin / 2.0)
     a *= apod
     b *= apod
-    rows = cv2.getOptimalDFTSize(n_rows + margin)
-    cols = cv2.getOptimalDFTSize(n_cols + margin)
-    a = cv2.copyMakeBorder(a, 0, rows - n_rows, 0, cols - n_cols, cv2.BORDER_CONSTANT, value=0)
-    b = cv2.copyMakeBorder(b, 0, rows - n_rows, 0, cols - n_cols, cv2.BORDER_CONSTANT, value=0)
+    rows = imaging.optimal_dft_size(n_rows + margin)
+    cols = imaging.optimal_dft_size(n_cols + margin)
+    a = imaging.pad_bottom_right(a, rows, cols)
+    b = imaging.pad_bottom_right(b, rows, cols)
     (dx, dy), response = _correlate(a, b, max_shift_cells=margin, whitening=config.whitening)
     # the shift of b relative to a: b(x) = a(x - d). The frame content sits at ``a``;
     # moving it by +d aligns it with the mosaic.
@@ -197,8 +197,7 @@ def measure_shift(
         return measured.refused("weak correlation")
     if magnitude > config.max_shift_m:
         return measured.refused("shift beyond prior")
-    moved = cv2.warpAffine(a, np.array([[1.0, 0.0, dx], [0.0, 1.0, dy]], dtype=np.float64), (cols, rows),
-                           flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    moved = imaging.translate(a, dx, dy)
     measured = replace(measured, ncc=_ncc(moved, b), ncc_zero=_ncc(a, b))
     if measured.ncc < config.min_ncc:
         return measured.refused("no seabed match")
@@ -207,8 +206,8 @@ def measure_shift(
     if config.half_agreement_m > 0:
         half_shifts = []
         for half in _halves(core):
-            window = cv2.GaussianBlur(half.astype(np.float32), (0, 0), margin / 2.0)
-            window = cv2.copyMakeBorder(window, 0, rows - n_rows, 0, cols - n_cols, cv2.BORDER_CONSTANT, value=0)
+            window = imaging.gaussian_blur(half.astype(np.float32), margin / 2.0)
+            window = imaging.pad_bottom_right(window, rows, cols)
             half_shifts.append(_correlate(a * window, b * window, max_shift_cells=margin,
                                           whitening=config.whitening)[0])
         (x0, y0), (x1, y1) = half_shifts

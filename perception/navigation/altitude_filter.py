@@ -1,5 +1,8 @@
 """Vertical state filter: vehicle depth, vertical speed and seabed depth, with smoothing.
 
+(Over 400 lines: one class, whose updates and smoothed queries share the stored filter
+steps; its 60-line docstring states the whole model.)
+
 The height solver needs the altitude change ``dH`` between two frame times and its
 variance. This module estimates it from asynchronous depth (pressure) and altitude
 (altimeter, sonar) measurements with a Kalman filter (:class:`filterpy.kalman.KalmanFilter`)
@@ -55,10 +58,7 @@ times, not from the sum of two independent variances.
 
 Bad input (NaN, non-positive noise or pressure, negative altitude) raises
 :class:`perception.errors.MeasurementError` before anything changes. A measurement older
-than the filter's latest step is counted as ``out_of_order`` and ignored.
-
-The module is one class over 400 lines on purpose: its updates and its smoothed queries
-share the stored filter steps, and its 60-line docstring states the whole model."""
+than the filter's latest step is counted as ``out_of_order`` and ignored."""
 
 from __future__ import annotations
 

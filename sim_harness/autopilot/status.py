@@ -11,16 +11,22 @@ system_status.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim_harness.autopilot.guidance import Mode
+from sim_harness.autopilot.failsafes import Failsafes
+from sim_harness.autopilot.guidance import Guidance, Mode, Targets
+from sim_harness.autopilot.mission import MissionProtocol
+from sim_harness.autopilot.mission_runner import MissionRunner
+from sim_harness.autopilot.mount import Mount
+from sim_harness.autopilot.navigation import Navigation
+from sim_harness.autopilot.params import ParamTable
+from sim_harness.autopilot.rangefinder import Rangefinder
 from sim_harness.autopilot.sensor_status import SensorState, sensor_flags
 from sim_harness.autopilot.telemetry import TelemetrySnapshot
-
-if TYPE_CHECKING:
-    from sim_harness.autopilot.autopilot import Autopilot
+from sim_harness.vehicle.dynamics import RovParams
+from sim_harness.vehicle.sensors import SensorReadings
 
 M = mavlink
 GUIDED_BASE_MODES = frozenset({Mode.AUTO, Mode.GUIDED, Mode.CIRCLE, Mode.POSHOLD})
@@ -45,7 +51,48 @@ def system_status(failsafe_latched: bool, armed: bool) -> int:
     return M.MAV_STATE_ACTIVE if armed else M.MAV_STATE_STANDBY
 
 
-def snapshot(ap: Autopilot, now_s: float) -> TelemetrySnapshot:
+class StatusSource(Protocol):
+    """The autopilot's parts its telemetry reports (read only; the autopilot is one)."""
+
+    @property
+    def readings(self) -> SensorReadings | None: ...
+    @property
+    def rov(self) -> RovParams: ...
+    @property
+    def thrust(self) -> tuple[float, float, float, float]: ...
+    @property
+    def navigation(self) -> Navigation: ...
+    @property
+    def mode(self) -> Mode: ...
+    @property
+    def armed(self) -> bool: ...
+    @property
+    def rangefinder(self) -> Rangefinder: ...
+    @property
+    def failsafes(self) -> Failsafes: ...
+    @property
+    def params(self) -> ParamTable: ...
+    @property
+    def runner(self) -> MissionRunner: ...
+    @property
+    def mission(self) -> MissionProtocol: ...
+    @property
+    def servo_tilt_rad(self) -> float: ...
+    @property
+    def guidance(self) -> Guidance: ...
+    @property
+    def targets(self) -> Targets: ...
+    @property
+    def mount(self) -> Mount: ...
+
+    def prearm_failure(self) -> str | None: ...
+
+    def home_tuple(self) -> tuple[float, float, float] | None: ...
+
+    def position_ok(self) -> bool: ...
+
+
+def snapshot(ap: StatusSource, now_s: float) -> TelemetrySnapshot:
     """What the telemetry of autopilot ``ap`` reports now."""
     r = ap.readings
     assert r is not None, "update() must run before telemetry"

@@ -13,7 +13,7 @@ Targets are ray cast on a global elevation grid ``e_k = k * step`` per beam axis
 nearest hit (target or seabed) wins. Near a target the seabed is the tangent plane of the
 relief at its centre (:class:`LocalSeabed`). The elevation intervals a target occludes are
 refined to 1/REFINE_SPLIT of the step (~4e-5 rad at the default 0.08 deg: ~0.3 mm of
-seabed range at 2 m) in :mod:`sim_harness.sonar.targets`; the seabed inside them is
+seabed range at 2 m) in :mod:`sim_harness.sonar.target_rays`; the seabed inside them is
 removed (the shadow), and the target's hits add echo at their own ranges.
 """
 

@@ -40,7 +40,8 @@ from sim_harness.sonar.physics import OUTPUTS
 from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
 from sim_harness.sonar.truth import FrameTruth
 from sim_harness.sonar.viewpoint import choose_tilt_rad
-from sim_harness.world.world import MATERIALS, Material, Seabed, TargetSpec, World
+from sim_harness.world.materials import MATERIALS, Material
+from sim_harness.world.world import Seabed, TargetSpec, World
 
 #: Output forms a frame may take when the scene varies them.
 FRAME_OUTPUTS = ("uint8", "uint16_amplitude", "float32_power")

@@ -5,7 +5,8 @@ aperture, 3 MHz, window 0.7-3.0 m with 1000 samples); any other forward-looking 
 set by :class:`SonarConfig`.
 
 Pipeline per frame (geometry in :mod:`sim_harness.sonar.geometry`, the seabed in
-:mod:`sim_harness.sonar.seabed`, targets in :mod:`sim_harness.sonar.targets`):
+:mod:`sim_harness.sonar.seabed`, target rays in :mod:`sim_harness.sonar.target_rays`, their echo
+and truth in :mod:`sim_harness.sonar.targets`):
 
 1. the seabed's echo per (range cell, beam), analytic: the exact elevation interval of
    each cell's seabed, weighted by the elevation beam pattern
@@ -61,16 +62,8 @@ from sim_harness.sonar.geometry import pose_geometry, target_table
 from sim_harness.sonar.physics import sinc_kernel
 from sim_harness.sonar.receiver import NoiseBanks, blank_near_rows, power_to_image
 from sim_harness.sonar.seabed import seabed_branches
-from sim_harness.sonar.targets import (
-    Sampling,
-    cast_all,
-    hidden_seabed,
-    no_runs,
-    occlusion_runs,
-    ray_batch,
-    target_echo,
-    target_truths,
-)
+from sim_harness.sonar.target_rays import Sampling, cast_all, no_runs, occlusion_runs, ray_batch
+from sim_harness.sonar.targets import hidden_seabed, target_echo, target_truths
 from sim_harness.sonar.truth import FrameTruth, Label, TargetTruth
 from sim_harness.world.errors import PoseError
 from sim_harness.world.world import World

@@ -73,8 +73,10 @@ from pathlib import Path
 from typing import Any
 
 from sim_harness.world.errors import SceneError, WorldError
+from sim_harness.world.materials import MATERIALS, Material
+from sim_harness.world.relief import Relief
 from sim_harness.world.texture import SeabedTexture
-from sim_harness.world.world import MATERIALS, SHAPES, Material, Relief, Seabed, TargetSpec, World
+from sim_harness.world.world import SHAPES, Seabed, TargetSpec, World
 
 #: Built-in scene names and their files under ``sim_harness/data/scenes``.
 BUILTIN = {"paper-tank": "paper-tank.toml", "open-seabed": "open-seabed.toml"}

@@ -1,6 +1,8 @@
 """The simulated seabed world: seabed, relief, texture and target solids."""
 
 from sim_harness.world.errors import PoseError, SceneError, SonarConfigError, WorldError
+from sim_harness.world.materials import MATERIALS, SPECULAR_GAIN, SPECULAR_WIDTH_RAD, Material
+from sim_harness.world.relief import Relief
 from sim_harness.world.shapes import (
     BoxSolid,
     CompositeSolid,
@@ -10,18 +12,7 @@ from sim_harness.world.shapes import (
     solid_kinds,
 )
 from sim_harness.world.texture import SeabedTexture
-from sim_harness.world.world import (
-    MATERIALS,
-    SHAPES,
-    SPECULAR_GAIN,
-    SPECULAR_WIDTH_RAD,
-    Material,
-    PlacedTarget,
-    Relief,
-    Seabed,
-    TargetSpec,
-    World,
-)
+from sim_harness.world.world import SHAPES, PlacedTarget, Seabed, TargetSpec, World
 
 __all__ = [
     "BoxSolid",

@@ -1,10 +1,13 @@
-"""Exceptions of the seabed world, scene files and sonar renderer (narrow, built-in bases).
+"""Exceptions of the seabed world, scene files and sonar renderer (narrow, built-in bases),
+and the world's one check of a number (:func:`finite`).
 
 Kept apart from :mod:`sim_harness.errors` (the vehicle side's) so the two halves of the
 simulator can grow independently.
 """
 
 from __future__ import annotations
+
+import math
 
 
 class SceneError(ValueError):
@@ -51,3 +54,16 @@ class SonarConfigError(ValueError):
     def __init__(self, message: str, *, key: str):
         super().__init__(f"sonar config {key}: {message}")
         self.key = key
+
+
+def finite(value: float, key: str, *, positive: bool = False, nonneg: bool = False) -> float:
+    """``value`` as a float; a :class:`WorldError` naming ``key`` unless finite (and > 0 or >= 0
+    when asked)."""
+    v = float(value)
+    if not math.isfinite(v):
+        raise WorldError(f"must be finite, got {value!r}", key=key)
+    if positive and v <= 0:
+        raise WorldError(f"must be > 0, got {value!r}", key=key)
+    if nonneg and v < 0:
+        raise WorldError(f"must be >= 0, got {value!r}", key=key)
+    return v

@@ -1,5 +1,12 @@
 """Target solids placed on the seabed and their analytic ray intersections.
 
+(Over 400 lines: one ray arithmetic shared by the four basic solids -- local axes, per-ray
+parameter columns, the scaled-sphere root of the stone and the rock -- and each solid's
+``intersect`` is its kind's batch kernel run on that solid alone, so a solid and a batch of
+solids give bit-identical hits; split by solid, every part would import the shared helpers
+and the dispatcher every kernel. The pipe, which shares none of them, is
+:mod:`sim_harness.world.pipe`.)
+
 All coordinates are local NED metres (x north, y east, z down; see
 :mod:`perception.geometry`). A solid's yaw turns its length axis clockwise from north.
 Every solid reaches from its top down to ``base_depth_m + footing_m``: the footing sinks it

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import functools
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
+
+from perception import imaging
 
 #: Beams whose band edge is this far (rows) from the fitted curve count as moved by a shadow.
 BAND_EDGE_TOLERANCE_ROWS = 6.0
@@ -160,8 +161,8 @@ def band_edges(
     # Each beam's first and last seabed row by argmax along contiguous memory: OpenCV
     # turns the rows into columns (transposed; rotated clockwise = transposed with the
     # rows reversed) far faster than numpy's argmax copies along the first axis.
-    by_beam = np.asarray(cv2.transpose(inside)).view(bool)
-    by_beam_reversed = np.asarray(cv2.rotate(inside, cv2.ROTATE_90_CLOCKWISE)).view(bool)
+    by_beam = imaging.transpose(inside).view(bool)
+    by_beam_reversed = imaging.rotate_clockwise(inside).view(bool)
     ends = np.empty((2, n_cols), dtype=np.intp)
     by_beam.argmax(axis=1, out=ends[0])
     by_beam_reversed.argmax(axis=1, out=ends[1])

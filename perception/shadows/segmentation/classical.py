@@ -8,10 +8,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from perception import imaging
 from perception.shadows.segmentation.grid import Region, components
 from perception.shadows.segmentation.levels import Levels
 
@@ -34,18 +34,8 @@ def classical_regions(
     )
     block = min(cfg.classical_block_size, (min(grey.shape) // 2) * 2 - 1)
     block = max(block, 3)
-    shadow_u8 = np.asarray(
-        cv2.adaptiveThreshold(
-            grey, 1, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, block, cfg.classical_offset,
-        ),
-        dtype=np.uint8,
-    )
-    highlight_u8 = np.asarray(
-        cv2.adaptiveThreshold(
-            grey, 1, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY, block, -cfg.classical_offset,
-        ),
-        dtype=np.uint8,
-    )
+    shadow_u8 = imaging.adaptive_mean_threshold(grey, block, cfg.classical_offset, below=True)
+    highlight_u8 = imaging.adaptive_mean_threshold(grey, block, -cfg.classical_offset, below=False)
     shadow_labels, shadows = components(shadow_u8, kind="shadow", min_area_px=MIN_SHADOW_AREA_PX)
     highlight_labels, highlights = components(highlight_u8, kind="highlight", min_area_px=MIN_HIGHLIGHT_AREA_PX)
     return shadow_labels, shadows, highlight_labels, highlights

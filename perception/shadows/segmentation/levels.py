@@ -10,9 +10,10 @@ from __future__ import annotations
 import functools
 import math
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
+
+from perception import imaging
 
 #: Image levels proportional to dB: the uint8 display image or float32 dB.
 Levels = NDArray[np.uint8] | NDArray[np.float32]
@@ -77,7 +78,7 @@ def as_levels(
     sample = power[::7, ::3]
     positive = sample[sample > 0]
     floor = float(np.median(positive)) * 10.0 ** (-LINEAR_FLOOR_DB / 10.0) if positive.size else 1e-12
-    db = np.asarray(cv2.log(np.maximum(power, np.float32(max(floor, 1e-30)))), dtype=np.float32)
+    db = imaging.log(np.maximum(power, np.float32(max(floor, 1e-30))))
     db *= np.float32(10.0 / np.log(10.0))
     return db, 1.0
 
@@ -118,8 +119,7 @@ def block_levels(image: Levels, row_step: int, *, beams: int) -> NDArray[np.floa
     out = np.add.reduce(blocks, axis=1, dtype=np.float32)
     out *= np.float32(1.0 / d)
     if beams > 1:
-        out = np.asarray(cv2.boxFilter(out, -1, (beams, 1), normalize=True, borderType=cv2.BORDER_REPLICATE),
-                         dtype=np.float32)
+        out = imaging.box_mean(out, beams, 1, replicate=True)
     return out
 
 
@@ -330,8 +330,8 @@ def running_min_max(
         return _min_max_of_three(np.asarray(values, dtype=np.float32))
     row = np.ascontiguousarray(values, dtype=np.float32).reshape(1, -1)
     kernel = _row_kernel(size)
-    low = cv2.erode(row, kernel, borderType=cv2.BORDER_REPLICATE)
-    high = cv2.dilate(row, kernel, borderType=cv2.BORDER_REPLICATE)
+    low = imaging.erode(row, kernel, replicate=True)
+    high = imaging.dilate(row, kernel, replicate=True)
     return low[0], high[0]
 
 

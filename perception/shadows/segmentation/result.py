@@ -10,10 +10,10 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from perception import imaging
 from perception.shadows.segmentation.grid import ColumnRows, Extents, Region
 from perception.shadows.segmentation.levels import Levels, power_table
 
@@ -102,7 +102,7 @@ class Segmentation:
         if block.dtype == np.uint8:
             if block.ndim == 2 and block.size:
                 lut = power_table(self.db_per_level)[None, :]
-                return np.asarray(cv2.LUT(np.asarray(block, dtype=np.uint8), lut), dtype=np.float64)
+                return imaging.lookup(np.asarray(block, dtype=np.uint8), lut)
             return np.asarray(power_table(self.db_per_level)[block], dtype=np.float64)
         return np.power(10.0, np.asarray(block, dtype=np.float64) * (self.db_per_level / 10.0))
 

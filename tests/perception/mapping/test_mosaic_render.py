@@ -43,8 +43,9 @@ from perception.mapping.mosaic import MosaicConfig
 from perception.mapping.registration import RegistrationConfig
 from perception.sonar_io.frame import SonarFrame
 from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
+from sim_harness.world.materials import MATERIALS, Material
 from sim_harness.world.texture import SeabedTexture
-from sim_harness.world.world import MATERIALS, Material, Seabed, TargetSpec, World
+from sim_harness.world.world import Seabed, TargetSpec, World
 
 RES_M = 0.01
 ALTITUDE_M = 1.0

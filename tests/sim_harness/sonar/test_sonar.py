@@ -17,7 +17,8 @@ from sim_harness.sonar.seabed import arccos01_f32
 from sim_harness.sonar.truth import Label
 from sim_harness.sonar.viewpoint import scene_pose
 from sim_harness.world.errors import PoseError, SonarConfigError
-from sim_harness.world.world import Relief, Seabed, TargetSpec, World
+from sim_harness.world.relief import Relief
+from sim_harness.world.world import Seabed, TargetSpec, World
 
 QUIET = {"speckle_looks": 0.0, "noise_floor_db": None}
 

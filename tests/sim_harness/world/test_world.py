@@ -10,8 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim_harness.world.errors import WorldError
+from sim_harness.world.materials import MATERIALS, Material
+from sim_harness.world.relief import Relief
 from sim_harness.world.shapes import BoxSolid, CompositeSolid, CylinderSolid, EllipsoidSolid, intersect_batch
-from sim_harness.world.world import MATERIALS, Material, Relief, Seabed, TargetSpec, World
+from sim_harness.world.world import Seabed, TargetSpec, World
 
 
 def test_sloped_seabed_deepens_towards_its_direction() -> None:
