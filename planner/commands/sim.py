@@ -64,8 +64,11 @@ def run(args: argparse.Namespace) -> int:
     def progress(sim_s: float, planned_s: float, state: str) -> None:
         if bar is not None:
             bar.n = min(100.0, 100.0 * sim_s / planned_s)
-            bar.set_postfix_str(f"{state}, sim {sim_s:.0f} s", refresh=False)
-            bar.update(0)  # redraws at most once per mininterval
+            bar.set_postfix_str(state if sim_s >= planned_s else f"{state}, sim {sim_s:.0f} s", refresh=False)
+            if sim_s >= planned_s:
+                bar.refresh()  # the dive is over: shown at once
+            else:
+                bar.update(0)  # redraws at most once per mininterval
 
     try:
         dry = dry_dive_into(prepared, out, overwrite=args.overwrite, progress=progress)

@@ -161,8 +161,9 @@ def run_dry_dive(
 
     ``out_dir`` is written as it is (``shadowsurvey sim`` passes a staged folder,
     :mod:`planner.mission.output_folder`). ``progress(sim_s, planned_s, state)`` is called
-    every control cycle; whatever it raises (a KeyboardInterrupt) ends the dive and is
-    raised here.
+    every control cycle, and once more with ``sim_s == planned_s`` when the dive is over
+    and the run folder is being written; whatever it raises (a KeyboardInterrupt) ends
+    the dive and is raised here.
     """
     del write_frames
     wall0 = time.perf_counter()
@@ -271,6 +272,9 @@ def run_dry_dive(
         raise KeyboardInterrupt
     result: DiveResult = holder["result"]
     executor = holder["executor"]
+    if progress is not None:  # the dive is over: 100 %, while the products are written
+        progress(max(planned_s, clock.now_s()), max(planned_s, clock.now_s()),
+                 f"{result.state} at {clock.now_s():.0f} s, writing the run folder")
     excursions = altitude_watch.finish(result.end_s)
     products = write_products(run, executor.onboard, executor.map_origin, final=True,
                               truth_points=tuple((t.north_m, t.east_m, t.height_m) for t in scene.world.targets))

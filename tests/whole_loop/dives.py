@@ -38,8 +38,8 @@ TRIM_AND_WAVES = AttitudeDisturbance(pitch_bias_rad=math.radians(-3.0), pitch_am
                                      pitch_period_s=8.0, roll_amplitude_rad=math.radians(3.0))
 
 
-def dive(tmp_path: Path, name: str = "run", **overrides) -> DryRun:
-    return run_dry_dive(load_scenario(SITE, **overrides), tmp_path / name)
+def dive(tmp_path: Path, name: str = "run", progress=None, **overrides) -> DryRun:
+    return run_dry_dive(load_scenario(SITE, **overrides), tmp_path / name, progress=progress)
 
 
 def pass_1_start_s(dry: DryRun) -> float:

@@ -34,7 +34,21 @@ from vehicle_link.mission import ardusub_stored
 
 @pytest.fixture(scope="module")
 def nominal(tmp_path_factory: pytest.TempPathFactory) -> DryRun:
-    return dive(tmp_path_factory.mktemp("nominal"))
+    calls: list[tuple[float, float, str]] = []
+    dry = dive(tmp_path_factory.mktemp("nominal"), progress=lambda *call: calls.append(call))
+    dry.progress_calls = calls  # type: ignore[attr-defined]
+    return dry
+
+
+@pytest.mark.slow
+def test_progress_follows_the_simulated_time_and_ends_at_the_whole(nominal: DryRun):
+    calls = nominal.progress_calls  # type: ignore[attr-defined]
+    sim_s = [c[0] for c in calls]
+    assert sim_s == sorted(sim_s) and sim_s[0] < 1.0
+    *during, last = calls
+    assert all(s < planned for s, planned, _ in during)  # the planned duration holds the dive
+    assert last[0] == last[1] >= nominal.summary["sim_duration_s"] - 1.0
+    assert last[2].startswith("COMPLETED") and "writing the run folder" in last[2]
 
 
 @pytest.mark.slow
