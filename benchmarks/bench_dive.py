@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -22,8 +23,28 @@ from pathlib import Path
 
 import numpy as np
 
-#: The dives measured by default: the shipped default dive and the field-scale site.
-SCENARIOS = ("paper-targets", "harbour-field")
+#: The dives measured by default: the shipped default dive, the field-scale site and the
+#: same site over a quarter of its area (the same floor, lanes half as long and half as
+#: many: whole-dive time against dive length).
+SCENARIOS = ("paper-targets", "harbour-field-quarter", "harbour-field")
+QUARTER = "harbour-field-quarter"
+
+
+def quarter_site(folder: Path) -> Path:
+    """harbour-field with its area halved east and north about its first corner, in ``folder``."""
+    from planner.dryrun.scenario import load_scenario
+
+    source = load_scenario("harbour-field").scene_path.parent
+    site = folder / QUARTER
+    shutil.copytree(source, site)
+    area = json.loads((site / "area.geojson").read_text(encoding="utf-8"))
+    for feature in area["features"]:
+        rings = feature["geometry"]["coordinates"]
+        lon0, lat0 = rings[0][0]
+        feature["geometry"]["coordinates"] = [[[lon0 + 0.5 * (lon - lon0), lat0 + 0.5 * (lat - lat0)]
+                                               for lon, lat in ring] for ring in rings]
+    (site / "area.geojson").write_text(json.dumps(area, indent=1), encoding="utf-8")
+    return site
 
 
 def reference_workload_s() -> float:
@@ -42,10 +63,11 @@ def run_dive(scenario: str) -> dict[str, float | str]:
     """One dive in a child process; its figures."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "run"
+        source = str(quarter_site(Path(tmp))) if scenario == QUARTER else scenario
         err = Path(tmp) / "stderr.txt"
         t0 = time.perf_counter()
         with err.open("w") as handle:
-            proc = subprocess.Popen([sys.executable, "-m", "planner.cli", "sim", scenario, "--out", str(out),
+            proc = subprocess.Popen([sys.executable, "-m", "planner.cli", "sim", source, "--out", str(out),
                                      "--no-progress"], stdout=subprocess.DEVNULL, stderr=handle)
             # wait4: this child's own CPU time and peak memory (its threads and children included)
             _, status, usage = os.wait4(proc.pid, 0)
@@ -89,7 +111,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     print("## Whole dives\n")
     print(f"Machine: {os.uname().machine}, {os.cpu_count()} cores, Python {sys.version.split()[0]}; "
-          f"load average {os.getloadavg()[0]:.1f}.\n")
+          f"load average {os.getloadavg()[0]:.1f}. CPU s counts the dive's process and its sonar "
+          "render process; peak RSS is the larger of the two (the render process holds about 120 MB).\n")
     print("\n".join(measure(tuple(args.scenarios), args.repeats)))
 
 

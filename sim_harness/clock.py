@@ -39,9 +39,11 @@ DEFAULT_STALL_TIMEOUT_S = 60.0
 
 @dataclass
 class _Participant:
-    """Lockstep state of one registered thread (guarded by the clock's lock)."""
+    """Lockstep state of one registered thread (guarded by the clock's lock); ``wake`` is
+    its own condition on that lock, notified only when it is due, poked or stopped."""
 
     name: str
+    wake: threading.Condition
     waiting: bool = False
     deadline_s: float = float("inf")
     poked: bool = False
@@ -76,7 +78,13 @@ class SimClock:
         self._now_s = float(start_s)
         self._speedup = speedup
         self._stall_timeout_s = stall_timeout_s
-        self._cond = threading.Condition()
+        # One lock; the simulator waits on ``_cond`` (for participants to go idle),
+        # non-participants on ``_tick`` (every time step), each participant on its own
+        # ``wake``: a time step wakes only the threads it makes due (no thundering herd
+        # of threads that re-check and sleep again 50 times a simulated second).
+        self._lock = threading.Lock()
+        self._cond = threading.Condition(self._lock)
+        self._tick = threading.Condition(self._lock)
         self._participants: dict[int, _Participant] = {}
         self._stopped = False
         self._generation = 0
@@ -104,7 +112,8 @@ class SimClock:
         with self._cond:
             if ident in self._participants:
                 raise SimConfigError("thread is already a participant", key="register")
-            self._participants[ident] = _Participant(name or threading.current_thread().name)
+            self._participants[ident] = _Participant(name or threading.current_thread().name,
+                                                     threading.Condition(self._lock))
 
     def unregister(self) -> None:
         """Remove the calling thread from the participants (no-op if it is not one)."""
@@ -165,7 +174,7 @@ class SimClock:
                     if me is None:
                         # Non-participants re-check after every time step or notify.
                         if generation == self._generation:
-                            self._cond.wait()
+                            self._tick.wait()
                         continue
                     if me.poked:
                         me.poked = False
@@ -173,9 +182,9 @@ class SimClock:
                     wake_s = deadline_s if poll_s is None else min(deadline_s, self._now_s + poll_s)
                     me.deadline_s = wake_s
                     me.waiting = True
-                    self._cond.notify_all()
+                    self._cond.notify_all()  # the simulator may go on
                     while not self._stopped and self._now_s < wake_s and not me.poked:
-                        self._cond.wait()
+                        me.wake.wait()
                     me.waiting = False
                     me.poked = False
         finally:
@@ -190,7 +199,9 @@ class SimClock:
         with self._cond:
             for p in self._participants.values():
                 p.poked = True
+                p.wake.notify_all()
             self._generation += 1
+            self._tick.notify_all()
             self._cond.notify_all()
 
     # -- advancing (simulator side) ------------------------------------------------
@@ -250,12 +261,18 @@ class SimClock:
                 raise ClockStopped("simulation clock stopped")
             self._now_s = t_s
             self._generation += 1
-            self._cond.notify_all()
+            for p in self._participants.values():
+                if p.waiting and p.deadline_s <= t_s:
+                    p.wake.notify_all()
+            self._tick.notify_all()
 
     def stop(self) -> None:
         """Stop the clock: every waiter and the simulator get ``ClockStopped``."""
         with self._cond:
             self._stopped = True
+            for p in self._participants.values():
+                p.wake.notify_all()
+            self._tick.notify_all()
             self._cond.notify_all()
 
 
