@@ -95,8 +95,10 @@ def format_summary(summary: dict[str, Any], out: Path) -> str:
         f"shadows in view {num('shadow_in_fov_ratio', '.3f')} of {summary.get('shadow_frames_within_range')} "
         "counted target-frames (report.md: Shadows in view)",
     ]
-    if "height_mean_abs_error_m" in summary:
+    if summary.get("height_mean_abs_error_m") is not None:
         lines.append(f"heights vs truth: mean |error| {100 * summary['height_mean_abs_error_m']:.2f} cm, "
                      f"max {100 * summary['height_max_abs_error_m']:.2f} cm over {summary.get('n_matched')} targets")
+    elif "height_mean_abs_error_m" in summary:  # no target matched (or the scene has none)
+        lines.append(f"heights vs truth: no target matched of {summary.get('n_truth_targets')} in the scene")
     lines.append(f"run folder: {out} (summary.json, report.md, mosaic_heights.png, targets.geojson)")
     return "\n".join(lines) + "\n" + json.dumps({k: summary[k] for k in ("status", "reason")})
