@@ -1,13 +1,13 @@
 """Output folders that never lose anything: built aside, moved into place when whole.
 
-A command that writes a folder (``sim``, ``run`` and ``plan`` ``--out``, ``mosaic --out``)
-goes through :func:`staged_folder`:
+A command that writes a folder (``sim``, ``run`` and ``plan`` ``--out``, ``mosaic --out``,
+``site DIR``) goes through :func:`staged_folder`:
 
 1. **Check first.** An existing folder that holds anything is refused unless the user
    passed ``--overwrite``; even then only a folder this product wrote (it holds one of
    the command's marker files: ``summary.json`` or ``events.jsonl`` for a run,
-   ``plan.json`` for a plan, ``mosaic.tif`` for a map) is replaced, never a folder of
-   someone's own files.
+   ``plan.json`` for a plan, ``mosaic.tif`` for a map, ``scenario.toml`` for a
+   scenario) is replaced, never a folder of someone's own files.
 2. **Build aside.** The command writes into a new sibling folder ``.NAME.partial-XXXX``
    (same parent, so same file system), never into the old one.
 3. **Move into place.** When the command finishes, the old folder (if any) is renamed
@@ -40,6 +40,7 @@ MARKERS: dict[str, tuple[str, ...]] = {
     "run": ("summary.json", "events.jsonl"),
     "plan": ("plan.json",),
     "map": ("mosaic.tif", "targets.geojson"),
+    "scenario": ("scenario.toml",),
 }
 
 

@@ -33,8 +33,8 @@ roughness = 0.3
 [[targets]]
 id = "T1"
 shape = "box"                    # box | cylinder | stone | rock | pipe (lying, along yaw_deg)
-north_m = 3.0
-east_m = 0.5
+north_m = 3.0                    # its place: north_m/east_m (metres from the origin) or
+east_m = 0.5                     # lat_deg/lon_deg (WGS84; needs an [origin]), one pair
 length_m = 0.19                  # box, stone, rock, pipe (cylinder: diameter_m; pipe: diameter_m too)
 width_m = 0.19
 height_m = 0.028
@@ -58,8 +58,11 @@ sound_speed_m_s = 1480.0
 
 Included scenes are loaded first; the including file's ``targets`` are appended to theirs
 (ids must stay unique), its ``materials`` added, and each of its ``seabed``, ``origin``,
-``viewpoint`` and ``sonar`` tables replaces the included one whole. Any error names the
-file and the key (:class:`~sim_harness.world.errors.SceneError`).
+``viewpoint`` and ``sonar`` tables replaces the included one whole. A target placed by
+``lat_deg``/``lon_deg`` stays where it is on the Earth: it is converted to local metres
+about the scene's final origin (after every include), through the product's one geodesy
+(:mod:`perception.geodesy`, the local frame's georeference). Any error names the file and
+the key (:class:`~sim_harness.world.errors.SceneError`).
 """
 
 from __future__ import annotations
@@ -67,11 +70,12 @@ from __future__ import annotations
 import json
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from perception.geodesy import LocalOrigin
 from sim_harness.world.errors import SceneError, WorldError
 from sim_harness.world.materials import MATERIALS, Material
 from sim_harness.world.relief import Relief
@@ -88,8 +92,11 @@ _SEABED_KEYS = {"depth_m", "slope_deg", "slope_direction_deg", "material", "reli
 DEFAULT_TEXTURE_SCALE_M = 0.1
 _RELIEF_KEYS = {"amplitude_m", "wavelength_m", "seed", "components"}
 _MATERIAL_KEYS = {"backscatter_db", "roughness"}
-_TARGET_KEYS = {"id", "shape", "north_m", "east_m", "length_m", "width_m", "diameter_m", "height_m",
-                "yaw_deg", "material", "seed"}
+_TARGET_KEYS = {"id", "shape", "north_m", "east_m", "lat_deg", "lon_deg", "length_m", "width_m", "diameter_m",
+                "height_m", "yaw_deg", "material", "seed"}
+#: The two ways to place a target: local metres about the origin, or WGS84 degrees.
+_LOCAL_PAIR = ("north_m", "east_m")
+_GEOGRAPHIC_PAIR = ("lat_deg", "lon_deg")
 _VIEW_KEYS = {"north_m", "east_m", "heading_deg", "altitude_m", "tilt_deg", "pitch_deg", "roll_deg"}
 _SONAR_KEYS = {"window_start_m", "window_length_m", "samples_per_beam", "sound_speed_m_s"}
 _MAX_INCLUDE_DEPTH = 8
@@ -261,9 +268,47 @@ def _parse_seabed(ctx: _Ctx, value: Any) -> Seabed:
         raise ctx.fail(exc.key, str(exc).split(": ", 1)[-1]) from exc
 
 
-def _parse_target(ctx: _Ctx, value: Any, i: int) -> TargetSpec:
+@dataclass(frozen=True)
+class _Geographic:
+    """A target placed by latitude and longitude, to be placed in metres once the origin is known."""
+
+    index: int  # in the scene's list of targets
+    lat_deg: float
+    lon_deg: float
+    path: str
+    key: str  # "targets[3]"
+
+
+def _target_place(ctx: _Ctx, t: dict[str, Any], key: str) -> tuple[float, float] | None:
+    """``(lat_deg, lon_deg)`` of a target placed geographically; None when it gives north_m/east_m.
+
+    Exactly one pair, whole: ``lat_deg``/``lon_deg`` or ``north_m``/``east_m``.
+    """
+    geographic = [k for k in _GEOGRAPHIC_PAIR if k in t]
+    local = [k for k in _LOCAL_PAIR if k in t]
+    if geographic and local:
+        raise ctx.fail(f"{key}.{geographic[0]}", "give either lat_deg/lon_deg or north_m/east_m, not both")
+    if not geographic:
+        if not local:
+            raise ctx.fail(f"{key}.north_m", "is required (a target's place: north_m/east_m or lat_deg/lon_deg)")
+        return None
+    for name, other in (_GEOGRAPHIC_PAIR, _GEOGRAPHIC_PAIR[::-1]):
+        if name not in t:
+            raise ctx.fail(f"{key}.{name}", f"is required with {other}")
+    lat = ctx.number(t, "lat_deg", key)
+    lon = ctx.number(t, "lon_deg", key)
+    if not -90.0 < lat < 90.0:
+        raise ctx.fail(f"{key}.lat_deg", f"must be within (-90, 90) deg, got {lat:g}")
+    if not -180.0 <= lon <= 180.0:
+        raise ctx.fail(f"{key}.lon_deg", f"must be within -180..180 deg, got {lon:g}")
+    return lat, lon
+
+
+def _parse_target(ctx: _Ctx, value: Any, i: int) -> tuple[TargetSpec, tuple[float, float] | None]:
+    """The target (at north 0, east 0 when placed geographically) and its ``(lat_deg, lon_deg)`` if so."""
     key = f"targets[{i}]"
     t = ctx.table(value, key, _TARGET_KEYS)
+    place = _target_place(ctx, t, key)
     shape = ctx.string(t, "shape", key)
     if shape not in SHAPES:
         raise ctx.fail(f"{key}.shape", f"unknown shape {shape!r}; known: {', '.join(SHAPES)}")
@@ -285,11 +330,11 @@ def _parse_target(ctx: _Ctx, value: Any, i: int) -> TargetSpec:
         length = ctx.number(t, "length_m", key, positive=True)
         width = ctx.number(t, "width_m", key, positive=True)
     try:
-        return TargetSpec(
+        spec = TargetSpec(
             target_id=ctx.string(t, "id", key),
             shape=shape,
-            north_m=ctx.number(t, "north_m", key),
-            east_m=ctx.number(t, "east_m", key),
+            north_m=0.0 if place else ctx.number(t, "north_m", key),
+            east_m=0.0 if place else ctx.number(t, "east_m", key),
             length_m=length,
             width_m=width,
             height_m=height if height is not None else ctx.number(t, "height_m", key, positive=True),
@@ -299,6 +344,7 @@ def _parse_target(ctx: _Ctx, value: Any, i: int) -> TargetSpec:
         )
     except WorldError as exc:
         raise ctx.fail(key, str(exc)) from exc
+    return spec, place
 
 
 def _parse_viewpoint(ctx: _Ctx, value: Any) -> Viewpoint:
@@ -336,6 +382,7 @@ class _Parts:
     origin: tuple[float, float] | None = None
     materials: dict[str, Material] = field(default_factory=dict)
     targets: list[TargetSpec] = field(default_factory=list)
+    geographic: list[_Geographic] = field(default_factory=list)
     viewpoint: Viewpoint | None = None
     sonar: dict[str, Any] = field(default_factory=dict)
     description: str = ""
@@ -374,6 +421,7 @@ def _load_parts(source: str | Path, base: Path | None, stack: tuple[str, ...]) -
         parts.seabed = sub.seabed or parts.seabed
         parts.origin = sub.origin or parts.origin
         parts.materials.update(sub.materials)
+        parts.geographic.extend(replace(g, index=g.index + len(parts.targets)) for g in sub.geographic)
         parts.targets.extend(sub.targets)
         parts.viewpoint = sub.viewpoint or parts.viewpoint
         parts.sonar.update(sub.sonar)
@@ -404,13 +452,41 @@ def _load_parts(source: str | Path, base: Path | None, stack: tuple[str, ...]) -
     if "targets" in doc:
         if not isinstance(doc["targets"], list):
             raise ctx.fail("targets", "must be an array of tables")
-        parts.targets.extend(_parse_target(ctx, t, i) for i, t in enumerate(doc["targets"]))
+        for i, t in enumerate(doc["targets"]):
+            spec, place = _parse_target(ctx, t, i)
+            if place is not None:
+                parts.geographic.append(_Geographic(len(parts.targets), *place, label, f"targets[{i}]"))
+            parts.targets.append(spec)
     if "viewpoint" in doc:
         parts.viewpoint = _parse_viewpoint(ctx, doc["viewpoint"])
     if "sonar" in doc:
         parts.sonar.update(_parse_sonar(ctx, doc["sonar"]))
     name = ctx.string(doc, "name", "", text if builtin else Path(label).stem)
     return name, parts
+
+
+def _placed(parts: _Parts, label: str) -> list[TargetSpec]:
+    """The targets, those given by latitude and longitude placed in metres about the scene's origin."""
+    targets = list(parts.targets)
+    if not parts.geographic:
+        return targets
+    first = parts.geographic[0]
+    if parts.origin is None:
+        raise SceneError("a target placed by lat_deg/lon_deg needs the scene's [origin] (lat_deg, lon_deg)",
+                         path=first.path, key=f"{first.key}.lat_deg")
+    try:
+        origin = LocalOrigin(*parts.origin)
+    except ValueError as exc:
+        raise SceneError(f"cannot place targets by lat_deg/lon_deg about it: {exc}", path=label, key="origin") from exc
+    north, east = origin.to_local([g.lat_deg for g in parts.geographic], [g.lon_deg for g in parts.geographic])
+    for g, n, e in zip(parts.geographic, north.tolist(), east.tolist(), strict=True):
+        far = math.hypot(n, e)
+        if not far <= MAX_SCENE_VALUE:
+            raise SceneError(f"lies {far / 1000:.0f} km from the scene's origin ({origin.lat_deg:g}, "
+                             f"{origin.lon_deg:g}); a target must lie within {MAX_SCENE_VALUE / 1000:g} km of it",
+                             path=g.path, key=f"{g.key}.lat_deg")
+        targets[g.index] = replace(targets[g.index], north_m=n, east_m=e)
+    return targets
 
 
 def load_scene(source: str | Path) -> Scene:
@@ -431,7 +507,7 @@ def load_scene(source: str | Path) -> Scene:
     materials.update(parts.materials)
     lat, lon = parts.origin if parts.origin else (math.nan, math.nan)
     try:
-        world = World(parts.seabed, tuple(parts.targets), materials, name, lat, lon)
+        world = World(parts.seabed, tuple(_placed(parts, label)), materials, name, lat, lon)
     except WorldError as exc:
         raise SceneError(str(exc), path=label) from exc
     return Scene(name, world, parts.viewpoint, dict(parts.sonar), parts.description, label)

@@ -135,3 +135,66 @@ def test_other_scene_errors(tmp_path: Path) -> None:
     with pytest.raises(SceneError, match="gentle"):
         load_scene(_write(tmp_path, "steep.toml", MINIMAL.replace(
             "depth_m = 5.0", "depth_m = 5.0\nrelief = { amplitude_m = 1.0, wavelength_m = 1.0 }")))
+
+
+# -- targets placed by latitude and longitude ----------------------------------------------------
+ORIGIN = "[origin]\nlat_deg = 43.2951\nlon_deg = 5.3745\n"
+#: MINIMAL's target at north 2 m, east 0 m, as WGS84 degrees about ORIGIN (pymap3d, computed once).
+GEOGRAPHIC = MINIMAL.replace("north_m = 2.0\neast_m = 0.0", "lat_deg = 43.29511800\nlon_deg = 5.37450000")
+
+
+def test_a_target_by_lat_lon_lands_where_north_east_puts_it(tmp_path: Path) -> None:
+    from perception.geodesy import LocalOrigin
+
+    by_metres = load_scene(_write(tmp_path, "m.toml", ORIGIN + MINIMAL)).world.targets[0]
+    by_degrees = load_scene(_write(tmp_path, "d.toml", ORIGIN + GEOGRAPHIC)).world.targets[0]
+    north, east = LocalOrigin(43.2951, 5.3745).to_local(43.295118, 5.3745)
+    assert (by_degrees.north_m, by_degrees.east_m) == pytest.approx((float(north), float(east)), abs=1e-9)
+    assert (by_degrees.north_m, by_degrees.east_m) == pytest.approx((by_metres.north_m, by_metres.east_m), abs=0.01)
+    assert by_degrees.height_m == by_metres.height_m and by_degrees.target_id == "a"
+
+
+def test_a_geographic_target_stays_put_when_an_including_scene_moves_the_origin(tmp_path: Path) -> None:
+    _write(tmp_path, "base.toml", ORIGIN + GEOGRAPHIC)
+    moved = 'include = ["base.toml"]\n[origin]\nlat_deg = 43.2950\nlon_deg = 5.3745\n'
+    spec = load_scene(_write(tmp_path, "moved.toml", moved)).world.targets[0]
+    # 0.0001 deg further south, the origin lies about 11.1 m closer to the equator: the target is 11.1 m
+    # further north of it, where north_m/east_m targets keep their metres
+    assert spec.north_m == pytest.approx(2.0 + 11.12, abs=0.02) and spec.east_m == pytest.approx(0.0, abs=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("text", "key", "message"),
+    [
+        (ORIGIN + MINIMAL.replace("east_m = 0.0", "east_m = 0.0\nlat_deg = 43.3"), "targets[0].lat_deg",
+         "give either lat_deg/lon_deg or north_m/east_m, not both"),
+        (ORIGIN + MINIMAL.replace("north_m = 2.0", "lon_deg = 5.3"), "targets[0].lon_deg", "not both"),
+        (ORIGIN + GEOGRAPHIC.replace("lon_deg = 5.37450000\n", ""), "targets[0].lon_deg", "is required with lat_deg"),
+        (ORIGIN + GEOGRAPHIC.replace("lat_deg = 43.29511800\n", ""), "targets[0].lat_deg", "is required with lon_deg"),
+        (ORIGIN + MINIMAL.replace("north_m = 2.0\neast_m = 0.0\n", ""), "targets[0].north_m",
+         "is required (a target's place"),
+        (ORIGIN + GEOGRAPHIC.replace("lat_deg = 43.29511800", "lat_deg = 95.0"), "targets[0].lat_deg",
+         "within (-90, 90)"),
+        (ORIGIN + GEOGRAPHIC.replace("lon_deg = 5.37450000", "lon_deg = 200.0"), "targets[0].lon_deg",
+         "within -180..180"),
+        (ORIGIN + GEOGRAPHIC.replace("lat_deg = 43.29511800", 'lat_deg = "43 N"'), "targets[0].lat_deg",
+         "must be a number"),
+        (ORIGIN + GEOGRAPHIC.replace("lat_deg = 43.29511800", "lat_deg = 44.5"), "targets[0].lat_deg",
+         "lies 134 km from the scene's origin"),
+        (GEOGRAPHIC, "targets[0].lat_deg", "needs the scene's [origin]"),
+        ("[origin]\nlat_deg = 90.0\nlon_deg = 0.0\n" + GEOGRAPHIC, "origin", "cannot place targets"),
+    ],
+)
+def test_bad_target_places_name_file_and_key(tmp_path: Path, text: str, key: str, message: str) -> None:
+    path = _write(tmp_path, "scene.toml", text)
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert info.value.key == key and message in str(info.value), str(info.value)
+    assert str(info.value).startswith(f"{path}: {key}: ")
+
+
+def test_an_included_geographic_target_without_an_origin_names_its_own_file(tmp_path: Path) -> None:
+    base = _write(tmp_path, "base.toml", GEOGRAPHIC)
+    with pytest.raises(SceneError, match="needs the scene's") as info:
+        load_scene(_write(tmp_path, "top.toml", 'include = ["base.toml"]\n'))
+    assert info.value.path == str(base) and info.value.key == "targets[0].lat_deg"
