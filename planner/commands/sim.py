@@ -47,15 +47,18 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the dry dive; exit 0 when completed, 1 when aborted (the run folder says why).
 
-    The scenario, its scene, area and settings are checked and the survey planned before
-    any folder is touched; the run is built in a staged folder and moved to ``--out``
-    when complete (:mod:`planner.mission.output_folder`).
+    The scenario, its scene, area and settings are checked (each, and against one another:
+    :mod:`planner.dryrun.consistency`) and the survey planned before any folder is
+    touched; the run is built in a staged folder and moved to ``--out`` when complete
+    (:mod:`planner.mission.output_folder`).
     """
+    from planner.dryrun.consistency import check_consistent
     from planner.dryrun.dive import dry_dive_into, prepare_dry_dive
     from planner.dryrun.scenario import load_scenario
 
     overrides = {"pitch_loop": False} if args.fixed_tilt else {}
     prepared = prepare_dry_dive(load_scenario(args.scenario, **overrides))
+    check_consistent(prepared)
     out = Path(args.out)
     check_output_folder(out, kind="run", overwrite=args.overwrite)
     bar = None if args.no_progress else tqdm(total=100, unit="%", desc="dive", file=sys.stderr, mininterval=1.0,
