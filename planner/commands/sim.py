@@ -107,5 +107,11 @@ def format_summary(summary: dict[str, Any], out: Path) -> str:
     elif "n_truth_targets" in summary:
         lines.append(f"heights vs truth: none of the {summary['n_truth_targets']} true targets has an estimate "
                      "within the matching radius (report.md)")
+    coverage = summary.get("coverage_by_truth") or {}
+    if coverage.get("every_pass") is not None:
+        per_pass = ", ".join(f"{k.replace('_', ' ')} {100 * v:.1f} %" for k, v in coverage.items()
+                             if k.startswith("pass_") and v is not None)
+        lines.append(f"area seen by the sonar: {per_pass}, by every pass {100 * coverage['every_pass']:.1f} % "
+                     f"of {coverage['region_m2']:.0f} m^2 (from the truth)")
     lines.append(f"run folder: {out} (summary.json, report.md, mosaic_heights.png, targets.geojson)")
     return "\n".join(lines) + "\n" + json.dumps({k: summary[k] for k in ("status", "reason")})

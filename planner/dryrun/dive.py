@@ -28,6 +28,7 @@ from typing import Any
 from perception.geodesy import LocalOrigin
 from planner.config import Settings, load_settings
 from planner.dryrun.anchored_faults import AnchoredFaults
+from planner.dryrun.coverage import pass_coverage, pass_intervals
 from planner.dryrun.scenario import Scenario
 from planner.dryrun.scoring import score_against_truth, score_altitude
 from planner.errors import ConfigError, InfeasibleError
@@ -282,6 +283,10 @@ def run_dry_dive(
                                       n_beams=renderer.config.n_beams, truth_targets=scene.world.targets,
                                       beam_azimuth_rad=renderer.config.beam_azimuth_rad, plan=plan)
     truth_extra.update(score_altitude(run, sim, result, limits, altitude_watch.std_at))
+    truth_extra["coverage_by_truth"] = pass_coverage(
+        sim.sonar_truths(), pass_intervals(result.states, result.end_s), area.coverage_region,
+        beam_azimuth_rad=renderer.config.beam_azimuth_rad, window_start_m=settings.sonar.window_start_m,
+        window_end_m=settings.sonar.window_end_m, elevation_aperture_rad=settings.sonar.elevation_aperture_rad)
     summary = summary_document(result, executor.onboard, wall_s=time.perf_counter() - wall0,
                                abort_message=run.last_message("failsafe"),
                                extra={"scenario": scenario.name, "min_altitude_allowed_m": settings.min_altitude_m,

@@ -103,6 +103,15 @@ def key_figures(run: RunData, score: HeightScore | None) -> list[str]:
     add("shadow_in_fov_ratio", "target shadows inside the vertical FOV", "percent",
         "share of the counted target-frames (simulator truth) whose whole shadow was in the field of view; "
         "which frames count, and the seconds outside them: Shadows in view")
+    coverage = s.get("coverage_by_truth")
+    if isinstance(coverage, dict) and coverage.get("every_pass") is not None:
+        per_pass = ", ".join(f"{k.replace('_', ' ')} {fmt(v, 'percent')}" for k, v in coverage.items()
+                             if k.startswith("pass_") and v is not None)
+        rows.append(["survey area seen by the sonar (simulator truth)",
+                     f"{per_pass}; by every pass {fmt(coverage['every_pass'], 'percent')}",
+                     f"share of the area to cover ({coverage.get('region_m2', 0):.0f} m^2, less holes and keep-outs) "
+                     "inside some frame's insonified seabed, per pass and by every pass (a height needs the "
+                     "shadow at two altitudes): the frames' true poses, the range window and the vertical aperture"])
     targets = _targets_row(run, s)
     if targets is not None:
         rows.append(targets)
@@ -135,7 +144,7 @@ def key_figures(run: RunData, score: HeightScore | None) -> list[str]:
                                "min_altitude_allowed_m", "depth_commands_clamped", "depth_limit_violations",
                                "depth_limit_violations_estimated", "shadow_in_fov_ratio", "n_targets",
                                "n_targets_with_height", "frames_processed", "frames_skipped", "waypoints_reached",
-                               "safe_action"}
+                               "safe_action", "coverage_by_truth"}
     if "safe_action" in s:
         rows.append(["safe action taken", fmt(s["safe_action"]), "what the executor did at the end or on an abort: "
                      "hold (depth hold where it was) or surface"])

@@ -294,3 +294,18 @@ def test_pitch_trim_and_waves_pitch_loop_against_fixed_tilt(tmp_path):
     scored = [t for t in closed.summary["heights_vs_truth"] if t["matched"]]
     assert len(scored) >= 4
     assert sum(abs(t["error_m"]) for t in scored) / len(scored) <= 0.002
+
+
+@pytest.mark.slow
+def test_both_passes_see_the_whole_area(nominal: DryRun):
+    # The judge's footprints from the true poses: the plan's swath covers the area at each altitude.
+    coverage = nominal.summary["coverage_by_truth"]
+    assert coverage["region_m2"] == pytest.approx(nominal.plan.summary.area_m2, abs=0.01)
+    planned = [p.coverage_fraction for p in nominal.plan.passes]
+    # What the planner promised for each pass, seen from the truth. The planner's swath is
+    # the plan's tilt; the pitch loop moves the tilt to hold the shadows, which moves the
+    # footprint (on this 14 m^2 site 3-6 % of the area, at its edges, is then missed by one
+    # pass; 0.3-0.8 % on paper-targets): a known gap, bounded here.
+    assert coverage["pass_1"] >= planned[0] - 0.08 and coverage["pass_2"] >= planned[1] - 0.08
+    assert coverage["every_pass"] >= min(planned) - 0.10
+    assert coverage["any_pass"] <= 1.0
