@@ -18,6 +18,34 @@ from perception.atomic_file import atomic_write  # noqa: E402
 from perception.mapping.heights_layer import MappedTarget  # noqa: E402
 from perception.mapping.products import MapRaster  # noqa: E402
 
+#: Mosaic cells drawn per inch of the figure, at most (a field-scale mosaic has tens of
+#: millions of 1 cm cells; the figure shows 150 pixels an inch).
+DISPLAY_PX_PER_INCH = 300
+
+
+def display_image(intensity: np.ndarray, max_px: int) -> np.ndarray:
+    """``intensity`` block-averaged (NaN cells left out) to at most ``max_px`` cells a side,
+    float32; unchanged when it is small enough."""
+    n_rows, n_cols = intensity.shape
+    k = max(1, math.ceil(max(n_rows, n_cols) / max(max_px, 1)))
+    if k == 1:
+        return intensity
+    rows, cols = math.ceil(n_rows / k), math.ceil(n_cols / k)
+    total = np.zeros((rows, cols), dtype=np.float64)
+    count = np.zeros((rows, cols), dtype=np.float64)
+    for r0 in range(0, n_rows, k * 64):  # a band at a time: no full-size temporaries
+        band = np.asarray(intensity[r0:r0 + k * 64], dtype=np.float32)
+        pad_r = (-band.shape[0]) % k
+        pad_c = (-n_cols) % k
+        band = np.pad(band, ((0, pad_r), (0, pad_c)), constant_values=np.nan)
+        blocks = band.reshape(band.shape[0] // k, k, cols, k)
+        finite = np.isfinite(blocks)
+        i0 = r0 // k
+        total[i0:i0 + blocks.shape[0]] += np.where(finite, blocks, 0.0).sum(axis=(1, 3), dtype=np.float64)
+        count[i0:i0 + blocks.shape[0]] += finite.sum(axis=(1, 3))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / np.maximum(count, 1), np.nan).astype(np.float32)
+
 
 def render_map_png(
     path: Path,
@@ -50,9 +78,10 @@ def render_map_png(
     width_in = 10.0
     height_in = max(4.0, min(14.0, width_in * n_rows / max(n_cols, 1)))
     fig, ax = plt.subplots(figsize=(width_in, height_in), constrained_layout=True)
-    valid = np.isfinite(raster.intensity)
-    top = float(np.percentile(raster.intensity[valid], 99.5)) if valid.any() else 1.0
-    shown = np.ma.masked_invalid(raster.intensity)
+    image = display_image(raster.intensity, int(DISPLAY_PX_PER_INCH * max(width_in, height_in)))
+    valid = np.isfinite(image)
+    top = float(np.percentile(image[valid], 99.5)) if valid.any() else 1.0
+    shown = np.ma.masked_invalid(image)
     ax.set_facecolor("#1b2a3a")
     ax.imshow(shown, cmap="copper", vmin=0, vmax=top, extent=extent, origin="upper", interpolation="nearest")
     solved = [t for t in targets if math.isfinite(t.height_m)]
