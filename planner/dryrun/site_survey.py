@@ -63,6 +63,21 @@ def toml_line(key: str, value: object, comment: str = "", *, column: int = 34) -
     return f"{line:<{column - 1}} # {comment}" if comment else line
 
 
+#: How far the vehicle trails a rising seabed in time, s: its altitude filter and depth
+#: loop together (harbour-field, 2 deg at 0.5 m/s: 5.2 cm below the pass at worst).
+SLOPE_FOLLOW_LAG_S = 3.0
+#: How closely the vehicle holds a depth on level ground, m (waves, turns).
+LEVEL_DEPTH_HOLD_M = 0.05
+
+
+def depth_hold_for_slope(slope_deg: float, speed_m_s: float) -> float:
+    """``vehicle.depth_hold_m`` for a seabed of ``slope_deg`` flown at ``speed_m_s``, m: the
+    level hold plus the rise of the seabed over :data:`SLOPE_FOLLOW_LAG_S` (lanes may run
+    up the slope), rounded up to the centimetre."""
+    rise_m = speed_m_s * math.tan(math.radians(abs(slope_deg))) * SLOPE_FOLLOW_LAG_S
+    return math.ceil(100.0 * (LEVEL_DEPTH_HOLD_M + rise_m) - 1e-9) / 100.0
+
+
 def preset_for(shallowest_m: float) -> SurveyPreset:
     """The preset for a site whose shallowest seabed is ``shallowest_m`` deep."""
     return FIELD if shallowest_m >= FIELD_DEPTH_M else NEAR_BOTTOM
@@ -73,13 +88,16 @@ def depth_limit_m(deepest_m: float) -> float:
     return float(math.ceil(deepest_m + DEPTH_LIMIT_MARGIN_M))
 
 
-def survey_text(preset: SurveyPreset, *, depth_m: float, shallowest_m: float, deepest_m: float) -> str:
+def survey_text(preset: SurveyPreset, *, depth_m: float, shallowest_m: float, deepest_m: float,
+                slope_deg: float = 0.0) -> str:
     """``survey.toml`` for a site ``depth_m`` deep at its origin (``shallowest_m``..``deepest_m`` over the area)."""
     p = preset
     spread = "flat" if math.isclose(shallowest_m, deepest_m, abs_tol=1e-3) else \
         f"{shallowest_m:.2f}-{deepest_m:.2f} m over the area"
     sample_mm = 1000 * (p.window_end_m - p.window_start_m) / p.samples_per_beam
     limit_note = f"depth limit: the deepest seabed + {DEPTH_LIMIT_MARGIN_M:g} m; give your vehicle's"
+    hold_note = "how closely the vehicle holds its altitude" + (
+        f" (with a {slope_deg:g} deg slope it trails the rising seabed)" if slope_deg > 0 else "")
     return f"""\
 # Survey settings written by `shadowsurvey site` for a site {depth_m:g} m deep ({spread}):
 # the {p.name} preset, the settings of the shipped {p.based_on} scenario (docs/own-site.md).
@@ -100,7 +118,7 @@ yaw_rate_deg_s = 30.0
 {toml_line("max_depth_m", depth_limit_m(deepest_m), limit_note)}
 min_depth_m = 0.5                 # keep at least this far below the surface
 {toml_line("min_clearance_m", p.min_clearance_m, "kept above the tallest expected target")}
-depth_hold_m = 0.05               # how closely the vehicle holds a depth
+{toml_line("depth_hold_m", depth_hold_for_slope(slope_deg, 0.5), hold_note)}
 
 [site]
 {toml_line("water_depth_m", depth_m, "expected seabed depth (at the scene's origin)")}

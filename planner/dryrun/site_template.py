@@ -211,7 +211,8 @@ def scene_text(spec: SiteSpec) -> str:
 def site_survey_text(spec: SiteSpec) -> str:
     """``survey.toml`` suiting the site's depth (:mod:`planner.dryrun.site_survey`)."""
     shallowest, deepest = spec.seabed_range_m()
-    return survey_text(spec.preset, depth_m=spec.depth_m, shallowest_m=shallowest, deepest_m=deepest)
+    return survey_text(spec.preset, depth_m=spec.depth_m, shallowest_m=shallowest, deepest_m=deepest,
+                       slope_deg=spec.slope_deg)
 
 
 def scenario_text(spec: SiteSpec) -> str:

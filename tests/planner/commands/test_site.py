@@ -90,6 +90,9 @@ def test_a_harbour_site_plans_as_written(tmp_path: Path) -> None:
     settings = prepared.settings
     assert settings.site.water_depth_m == 12.0 and settings.vehicle.max_depth_m == 16.0
     assert (settings.sonar.window_start_m, settings.sonar.window_end_m) == (1.0, 8.0)
+    # 2 deg at 0.5 m/s rises 1.75 cm/s: 3 s of it (the vehicle trails a rising seabed) on 5 cm
+    assert settings.vehicle.depth_hold_m == 0.11
+    assert prepared.plan.passes[0].altitude_m == pytest.approx(settings.min_altitude_m + 0.11, abs=1e-4)
     assert prepared.scenario.start_north_m == pytest.approx(-12.0, abs=0.01)  # 2 m south of the area
     assert len(prepared.plan.passes) == 2
 
