@@ -73,7 +73,7 @@ class HeightPipeline:
         self._sample_m: dict[int, float] = {}
         self._targets_cache: tuple[int, list[TargetHeight]] | None = None
         # per track: what its answer depends on, the frame count then, the answer
-        self._solved: dict[int, tuple[tuple[object, ...], int, TargetHeight]] = {}
+        self._solved: dict[int, tuple[tuple[object, ...], int, TargetHeight]] = {}  # (key, n, answer)
         self._solver = TargetSolver(self.config, self._sample_m)
 
     @property
@@ -166,7 +166,7 @@ class HeightPipeline:
             position = track.position_m()[:2]
             key = self._solve_key(track.detections, shared, position)
             memo = self._solved.get(track.track_id)
-            if memo is not None and memo[0] == key and (memo[2].height_m is not None or memo[1] == self._n_frames):
+            if memo is not None and memo[0] == key:
                 solved.append(memo[2])
                 continue
             answer = self._solver.solve(track.track_id, track.detections, shared, position, n_frames=self._n_frames)
@@ -180,8 +180,7 @@ class HeightPipeline:
         """What :meth:`TargetSolver.solve`'s answer for a track depends on: its detections
         (appended in frame order, so their count and ends name them), its position, the
         shared reference altitude (only when a frame lacks an absolute altitude), and the
-        frame count in a short recording's per-frame reasons. (A target without a height
-        is solved again every frame: its reason may say "of N frames".)"""
+        frame count in a short recording (its per-frame reasons, and "of N frames")."""
         needs_shared = not all(math.isfinite(d.altitude_m) for d in detections)
         counts_frames = self._n_frames <= EVERY_FRAME_UP_TO
         ends = (detections[0].frame_index, detections[-1].frame_index) if detections else ()

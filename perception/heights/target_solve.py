@@ -91,7 +91,9 @@ class TargetSolver:
         frame_reasons = self._frame_reasons(detections, usable, n_frames)
         if len(usable) < cfg.min_frames:
             seen = len({d.frame_index for d in detections})
-            total = f" of {n_frames}" if n_frames is not None else ""
+            # "of N" in a short recording only: in a dive the frames before and after the
+            # target was in view say nothing about it ("seen in" counts those it was in).
+            total = f" of {n_frames}" if n_frames is not None and n_frames <= EVERY_FRAME_UP_TO else ""
             reason = (f"complete shadow in {len(usable)}{total} frame(s), {cfg.min_frames} needed (seen in {seen}): "
                       + summarise_frame_reasons(frame_reasons))
         else:
