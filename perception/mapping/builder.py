@@ -225,7 +225,7 @@ class MosaicBuilder:
         result: RegistrationResult | None = None
         reg = self.registration
         if (self.drift is not None and reg is not None and self._reference is not None
-                and self.mosaic.frames_added % reg.every_n_frames == 0):
+                and self.mosaic.frames_added % self.drift.interval_frames == 0):
             stacked = _stack(projected, list(self._pending)[len(self._pending) - (reg.stack_frames - 1):])
             result = self.drift.update(measure_shift(stacked, self._reference, config=reg),
                                        travelled_m=self.travelled_m)

@@ -242,6 +242,15 @@ class DriftEstimator:
         self._travelled_m = 0.0
         self.accepted = 0
         self.rejected = 0
+        self.refused_in_a_row = 0
+
+    @property
+    def interval_frames(self) -> int:
+        """Frames between registrations now: ``every_n_frames``, or ``backoff_factor`` times
+        that after ``backoff_after_refusals`` refusals in a row."""
+        cfg = self.config
+        backoff = self.refused_in_a_row >= cfg.backoff_after_refusals
+        return cfg.every_n_frames * (cfg.backoff_factor if backoff else 1)
 
     @property
     def std_m(self) -> float:
@@ -285,8 +294,10 @@ class DriftEstimator:
                 result = result.refused("drift beyond prior")
         if not result.accepted:
             self.rejected += 1
+            self.refused_in_a_row += 1
             return result
         self.north_m, self.east_m = north, east
         self._variance *= 1.0 - gain
         self.accepted += 1
+        self.refused_in_a_row = 0
         return result

@@ -30,6 +30,11 @@ class RegistrationConfig:
     every_n_frames : int
         Register one frame in this many (drift grows slowly; the others take the
         current estimate).
+    backoff_after_refusals, backoff_factor : int
+        After this many registrations refused in a row (a seabed without texture the
+        correlation can hold: 60 are 18 s of a 10 Hz sonar), register only one frame in
+        ``backoff_factor * every_n_frames`` until one is accepted: the refused ones cost a
+        fifth of a field dive's time and correct nothing.
     whitening : float
         0..1: how far the correlation whitens the spectrum (1 = classic phase correlation,
         0 = plain cross-correlation); see :func:`_correlate`.
@@ -75,6 +80,8 @@ class RegistrationConfig:
     texture_scale_m: float = 0.02
     reference_lag_frames: int = 30
     every_n_frames: int = 3
+    backoff_after_refusals: int = 60
+    backoff_factor: int = 4
     stack_frames: int = 8
     whitening: float = 0.5
     min_ncc: float = 0.2
@@ -92,6 +99,8 @@ class RegistrationConfig:
                 raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
         if self.measurement_std_m <= 0:
             raise ValueError(f"measurement_std_m must be > 0, got {self.measurement_std_m!r}")
+        if self.backoff_after_refusals < 1 or self.backoff_factor < 1:
+            raise ValueError("backoff_after_refusals and backoff_factor must be >= 1")
         if self.every_n_frames < 1 or self.reference_lag_frames < 0:
             raise ValueError("every_n_frames must be >= 1 and reference_lag_frames >= 0")
         if not 1 <= self.stack_frames <= max(1, self.reference_lag_frames):

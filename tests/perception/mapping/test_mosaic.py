@@ -306,6 +306,18 @@ def test_drift_filter_weighs_matches_by_their_uncertainty():
     assert est.rejected == 1 and est.accepted == 2
 
 
+def test_a_seabed_the_correlation_cannot_hold_is_registered_less_often():
+    est = DriftEstimator(RegistrationConfig(every_n_frames=3, backoff_after_refusals=60, backoff_factor=4))
+    weak = RegistrationResult(False, 0.0, 0.0, 0.06, 0.5, "weak correlation")
+    for i in range(59):
+        est.update(weak, travelled_m=0.1 * i)
+    assert est.interval_frames == 3  # 59 refusals in a row (the paper-targets dive's longest is 45)
+    est.update(weak, travelled_m=6.0)
+    assert est.interval_frames == 12
+    assert est.update(RegistrationResult(True, 0.01, 0.0, 0.5, 0.8, "accepted"), travelled_m=6.1).accepted
+    assert est.interval_frames == 3 and est.refused_in_a_row == 0
+
+
 def test_registration_config_is_checked():
     with pytest.raises(ValueError, match="measurement_std_m"):
         RegistrationConfig(measurement_std_m=0.0)
