@@ -68,9 +68,6 @@ def _read_exactly(stream: IO[bytes], n: int) -> bytes:
 def serve(jobs: IO[bytes], results: IO[bytes]) -> None:
     """The child's loop: the set-up message, then render every job in order until ``None``."""
     renderer, pose_factory, keep_label_images = read_message(jobs)
-    prepare = getattr(renderer, "prepare_process", None)
-    if prepare is not None:
-        prepare()
     while True:
         try:
             job = read_message(jobs)

@@ -172,6 +172,9 @@ class HeightPipeline:
             answer = self._solver.solve(track.track_id, track.detections, shared, position, n_frames=self._n_frames)
             self._solved[track.track_id] = (key, self._n_frames, answer)
             solved.append(answer)
+        if len(self._solved) > len(tracks):  # tracks the tracker folded into others
+            live = {track.track_id for track in tracks}
+            self._solved = {k: v for k, v in self._solved.items() if k in live}
         self._targets_cache = (self._n_frames, solved)
         return list(solved)
 

@@ -148,6 +148,12 @@ class SonarRenderer:
     config : SonarConfig
     """
 
+    def __setstate__(self, state: dict) -> None:
+        """Unpickled (in a render process, :mod:`sim_harness.render_worker`): the same
+        allocator setting as a renderer built there."""
+        _keep_freed_memory()
+        self.__dict__.update(state)
+
     def __init__(self, world: World, config: SonarConfig | None = None):
         _keep_freed_memory()
         self.world = world
