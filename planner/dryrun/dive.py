@@ -199,101 +199,106 @@ def run_dry_dive(
                                  (name, MOUNT_STATUS_PERIOD_S if name == "GIMBAL_DEVICE_ATTITUDE_STATUS" else period)
                                  for name, period in DEFAULT_MESSAGE_INTERVALS_S),
                              heartbeat_period_s=0.5)
-    onboard = OnboardPerception(OnboardConfig(specific_gravity=1.0))
-    tilt = make_tilt_controller(plan, settings, closed_loop=scenario.pitch_loop)
-    planned_s = sum(p.duration_s for p in plan.passes) + 60.0
-    holder: dict[str, Any] = {}
-    limits = AltitudeLimits(tuple(p.altitude_m for p in plan.passes), settings.min_altitude_m)
-    altitude_watch = DiveWatch(limits, run.event)
-
-    def cycle(executor: MissionExecutor) -> None:
-        altitude_watch.on_cycle(executor)
-        now = clock.now_s()
-        if progress is not None:
-            try:
-                progress(now, planned_s, executor.result.state)
-            except KeyboardInterrupt:  # the executor commands its safe action; raised again below
-                holder["interrupted"] = True
-                raise
-        t0 = 0.0
-        if isinstance(faults, AnchoredFaults):
-            if "t0_s" not in faults.anchor:
-                entered = [t for t, state in executor.result.states if state == scenario.faults_from_state]
-                if entered:
-                    faults.anchor["t0_s"] = entered[0]  # the fault windows count from here
-            t0 = faults.anchor.get("t0_s", math.inf)
-        if scenario.companion_dies_at_s is not None and now >= t0 + scenario.companion_dies_at_s:
-            raise CompanionDied()
-        if now - holder.get("products_s", now) > 60.0:
-            write_products(run, executor.onboard, executor.map_origin)
-            holder["products_s"] = now
-
-    joined = threading.Event()
-
-    def fly() -> None:
-        with clock.participant("executor"):
-            joined.set()  # the simulator starts only once this thread holds it back
-            client = ArduSubClient(link_config, clock=clock, on_link_lost=lambda h: executor.on_link_lost(h),
-                                   on_link_restored=lambda h: executor.on_link_restored(h))
-            executor = MissionExecutor(client, sim.sonar, plan, exec_config, run, clock, onboard, tilt=tilt,
-                                       on_cycle=cycle)
-            holder["executor"] = executor
-            client.add_listener(onboard.listener)
-            try:
-                holder["result"] = executor.run_dive()
-            except CompanionDied:
-                # Killed: no safe action, no goodbye; the link's I/O thread dies with it.
-                holder["killed_s"] = clock.now_s()
-                executor.result.status, executor.result.reason = "killed", "companion_killed"
-                executor.result.message = f"the companion's process was killed at {clock.now_s():.1f} s"
-                executor.result.end_s = clock.now_s()
-                holder["result"] = executor.result
-            except BaseException as exc:  # a Ctrl-C from the progress callback: raised again below
-                holder["error"] = exc
-            finally:
-                client.close()
-
-    pilot = threading.Thread(target=fly, name="executor")
-    pilot.start()
-    joined.wait()
-    sim.start()
+    # The frame-to-map chain in its own process: a frame's results reach the controller one
+    # control cycle after it (planner.mission.onboard), while the next frames render.
+    onboard = OnboardPerception(OnboardConfig(specific_gravity=1.0, map_process=True))
     try:
-        pilot.join()
-        if scenario.run_on_s > 0.0:  # let the vehicle show what it does on its own
-            clock.sleep_until(holder.get("killed_s", clock.now_s()) + scenario.run_on_s)
+        tilt = make_tilt_controller(plan, settings, closed_loop=scenario.pitch_loop)
+        planned_s = sum(p.duration_s for p in plan.passes) + 60.0
+        holder: dict[str, Any] = {}
+        limits = AltitudeLimits(tuple(p.altitude_m for p in plan.passes), settings.min_altitude_m)
+        altitude_watch = DiveWatch(limits, run.event)
+
+        def cycle(executor: MissionExecutor) -> None:
+            altitude_watch.on_cycle(executor)
+            now = clock.now_s()
+            if progress is not None:
+                try:
+                    progress(now, planned_s, executor.result.state)
+                except KeyboardInterrupt:  # the executor commands its safe action; raised again below
+                    holder["interrupted"] = True
+                    raise
+            t0 = 0.0
+            if isinstance(faults, AnchoredFaults):
+                if "t0_s" not in faults.anchor:
+                    entered = [t for t, state in executor.result.states if state == scenario.faults_from_state]
+                    if entered:
+                        faults.anchor["t0_s"] = entered[0]  # the fault windows count from here
+                t0 = faults.anchor.get("t0_s", math.inf)
+            if scenario.companion_dies_at_s is not None and now >= t0 + scenario.companion_dies_at_s:
+                raise CompanionDied()
+            if now - holder.get("products_s", now) > 60.0:
+                write_products(run, executor.onboard, executor.map_origin)
+                holder["products_s"] = now
+
+        joined = threading.Event()
+
+        def fly() -> None:
+            with clock.participant("executor"):
+                joined.set()  # the simulator starts only once this thread holds it back
+                client = ArduSubClient(link_config, clock=clock, on_link_lost=lambda h: executor.on_link_lost(h),
+                                       on_link_restored=lambda h: executor.on_link_restored(h))
+                executor = MissionExecutor(client, sim.sonar, plan, exec_config, run, clock, onboard, tilt=tilt,
+                                           on_cycle=cycle)
+                holder["executor"] = executor
+                client.add_listener(onboard.listener)
+                try:
+                    holder["result"] = executor.run_dive()
+                except CompanionDied:
+                    # Killed: no safe action, no goodbye; the link's I/O thread dies with it.
+                    holder["killed_s"] = clock.now_s()
+                    executor.result.status, executor.result.reason = "killed", "companion_killed"
+                    executor.result.message = f"the companion's process was killed at {clock.now_s():.1f} s"
+                    executor.result.end_s = clock.now_s()
+                    holder["result"] = executor.result
+                except BaseException as exc:  # a Ctrl-C from the progress callback: raised again below
+                    holder["error"] = exc
+                finally:
+                    client.close()
+
+        pilot = threading.Thread(target=fly, name="executor")
+        pilot.start()
+        joined.wait()
+        sim.start()
+        try:
+            pilot.join()
+            if scenario.run_on_s > 0.0:  # let the vehicle show what it does on its own
+                clock.sleep_until(holder.get("killed_s", clock.now_s()) + scenario.run_on_s)
+        finally:
+            sim.stop()
+        if "result" not in holder:
+            run.close()
+            if "error" in holder:
+                raise holder["error"]
+            raise RuntimeError("the executor thread ended without a result (see the log above)")
+        if holder.get("interrupted"):
+            run.close()
+            raise KeyboardInterrupt
+        result: DiveResult = holder["result"]
+        executor = holder["executor"]
+        if progress is not None:  # the dive is over: 100 %, while the products are written
+            progress(max(planned_s, clock.now_s()), max(planned_s, clock.now_s()),
+                     f"{result.state} at {clock.now_s():.0f} s, writing the run folder")
+        excursions = altitude_watch.finish(result.end_s)
+        products = write_products(run, executor.onboard, executor.map_origin, final=True,
+                                  truth_points=tuple((t.north_m, t.east_m, t.height_m) for t in scene.world.targets))
+        truth_extra = score_against_truth(run, sim, settings, result, products.targets,
+                                          n_beams=renderer.config.n_beams, truth_targets=scene.world.targets,
+                                          beam_azimuth_rad=renderer.config.beam_azimuth_rad, plan=plan)
+        truth_extra.update(score_altitude(run, sim, result, limits, altitude_watch.std_at))
+        truth_extra["coverage_by_truth"] = pass_coverage(
+            sim.sonar_truths(), pass_intervals(result.states, result.end_s), area.coverage_region,
+            beam_azimuth_rad=renderer.config.beam_azimuth_rad, window_start_m=settings.sonar.window_start_m,
+            window_end_m=settings.sonar.window_end_m, elevation_aperture_rad=settings.sonar.elevation_aperture_rad)
+        summary = summary_document(result, executor.onboard, wall_s=time.perf_counter() - wall0,
+                                   abort_message=run.last_message("failsafe"),
+                                   extra={"scenario": scenario.name, "min_altitude_allowed_m": settings.min_altitude_m,
+                                          "altitude_excursions": [ex.to_dict() for ex in excursions], **truth_extra})
+        run.write_json("summary.json", summary)
+        run.close()
+        return DryRun(Path(out_dir), plan, result, summary, sim)
     finally:
-        sim.stop()
-    if "result" not in holder:
-        run.close()
-        if "error" in holder:
-            raise holder["error"]
-        raise RuntimeError("the executor thread ended without a result (see the log above)")
-    if holder.get("interrupted"):
-        run.close()
-        raise KeyboardInterrupt
-    result: DiveResult = holder["result"]
-    executor = holder["executor"]
-    if progress is not None:  # the dive is over: 100 %, while the products are written
-        progress(max(planned_s, clock.now_s()), max(planned_s, clock.now_s()),
-                 f"{result.state} at {clock.now_s():.0f} s, writing the run folder")
-    excursions = altitude_watch.finish(result.end_s)
-    products = write_products(run, executor.onboard, executor.map_origin, final=True,
-                              truth_points=tuple((t.north_m, t.east_m, t.height_m) for t in scene.world.targets))
-    truth_extra = score_against_truth(run, sim, settings, result, products.targets,
-                                      n_beams=renderer.config.n_beams, truth_targets=scene.world.targets,
-                                      beam_azimuth_rad=renderer.config.beam_azimuth_rad, plan=plan)
-    truth_extra.update(score_altitude(run, sim, result, limits, altitude_watch.std_at))
-    truth_extra["coverage_by_truth"] = pass_coverage(
-        sim.sonar_truths(), pass_intervals(result.states, result.end_s), area.coverage_region,
-        beam_azimuth_rad=renderer.config.beam_azimuth_rad, window_start_m=settings.sonar.window_start_m,
-        window_end_m=settings.sonar.window_end_m, elevation_aperture_rad=settings.sonar.elevation_aperture_rad)
-    summary = summary_document(result, executor.onboard, wall_s=time.perf_counter() - wall0,
-                               abort_message=run.last_message("failsafe"),
-                               extra={"scenario": scenario.name, "min_altitude_allowed_m": settings.min_altitude_m,
-                                      "altitude_excursions": [ex.to_dict() for ex in excursions], **truth_extra})
-    run.write_json("summary.json", summary)
-    run.close()
-    return DryRun(Path(out_dir), plan, result, summary, sim)
+        onboard.close()
 
 
 def dry_dive_into(

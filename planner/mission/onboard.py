@@ -13,7 +13,11 @@ Only what a real vehicle knows enters here: MAVLink telemetry records (from
 :mod:`vehicle_link`) and sonar frames from a sonar source. A simulator's frame may carry
 true pose fields; they are overwritten with the navigation the controller received.
 Everything runs in the executor's thread; telemetry arrives from the link's I/O thread
-through a queue.
+through a queue. With ``OnboardConfig.map_process`` the frame-to-map chain runs in a child
+process instead (:mod:`perception.mapping.map_process`): the frames of one control cycle are
+measured while the controller works, and their results (``last_frame``, the counters,
+``tracked_targets``) reach it at the next cycle: always exactly one cycle later, however
+busy the machine (the controller waits for them rather than fly on without them).
 
 Mount frame: the mount reports its angle in its own frame (GIMBAL_DEVICE_ATTITUDE_STATUS:
 ArduSub's stabilised servo mount, MNT1_TYPE 1, reports its earth-frame target); a frame's
@@ -30,9 +34,9 @@ import queue
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from perception.errors import FrameFormatError, GeometryError
 from perception.heights.pipeline import FrameResult, TargetHeight
 from perception.mapping.heights_layer import MappedTarget
+from perception.mapping.map_process import BatchResult, SurveyMapProcess, apply_batch, latest_only
 from perception.mapping.mosaic import MosaicConfig
 from perception.mapping.products import MapRaster
 from perception.mapping.registration import RegistrationConfig
@@ -68,6 +72,9 @@ class OnboardConfig:
         (+0.27, +0.18) m where the DVL had drifted by (-0.29, -0.19) m.
     nav_history_s : float
         How much navigation history is kept to stamp frames, s.
+    map_process : bool
+        Run the frame-to-map chain in a child process (module docstring); close the
+        perception with :meth:`OnboardPerception.close`.
     """
 
     depth_std_m: float = 0.01
@@ -76,6 +83,7 @@ class OnboardConfig:
     mosaic_resolution_m: float = 0.01
     registration: bool = True
     nav_history_s: float = 30.0
+    map_process: bool = False
 
 
 @dataclass(frozen=True)
@@ -141,6 +149,9 @@ class OnboardPerception:
         self._seen_distance_sensor = False
         self._last_frame: FrameResult | None = None
         self._mount_frame = "body"
+        self._worker = SurveyMapProcess(self._map) if cfg.map_process else None
+        # The map's counters and targets as of the newest frames taken back.
+        self._batch = BatchResult((), None, 0, 0, ())
 
     # ------------------------------------------------------------------- verbs
     def listener(self, record: object) -> None:
@@ -155,7 +166,7 @@ class OnboardPerception:
                 record = self._inbox.get_nowait()
             except queue.Empty:
                 return n
-            self._take(record)
+            self._take_record(record)
             n += 1
 
     def set_mapping(self, enabled: bool) -> None:
@@ -173,29 +184,55 @@ class OnboardPerception:
         self._filter.set_maneuvering(moving)
 
     def process_frames(self, frames: Sequence[SonarFrame]) -> list[FrameResult]:
-        """Stamp, measure and map frames; frames without navigation yet are skipped."""
-        results = []
+        """Stamp, measure and map frames; frames without navigation yet are skipped.
+
+        In thread: the results of ``frames``. With the map process: ``frames`` are sent
+        and the results of those sent at the previous call are returned."""
+        results = self._collect()
+        batch = []
         for raw in frames:
             frame = self.stamp(raw)
             if frame is None:
                 self._frames_skipped += 1
                 continue
-            try:
-                result = self._map.add_frame(frame, mosaic=self._mapping)
-            except (FrameFormatError, GeometryError):
+            batch.append((frame, self._mapping))
+        if batch:
+            if self._worker is not None:
+                self._worker.submit(batch, with_targets=True)
+            else:
+                results.extend(self._take(apply_batch(self._map, batch)))
+        return results
+
+    def _collect(self) -> list[FrameResult]:
+        """The results of every batch sent to the map process and not yet taken back."""
+        results: list[FrameResult] = []
+        while self._worker is not None and self._worker.pending:
+            results.extend(self._take(self._worker.collect()))
+        return results
+
+    def _take(self, batch: BatchResult) -> list[FrameResult]:
+        results = []
+        for result in batch.results:
+            if result is None:
                 self._frames_skipped += 1
                 continue
             self._frames_used += 1
             self._last_frame = result
             results.append(result)
+        self._batch = batch
         return results
+
+    def close(self) -> None:
+        """Stop the map process, if any (the products are read before)."""
+        if self._worker is not None:
+            self._worker.close()
 
     # ---------------------------------------------------------------- telemetry
     def _in_order(self, time_s: float) -> bool:
         last = self._filter.last_time_s
         return math.isnan(last) or time_s >= last
 
-    def _take(self, record: object) -> None:
+    def _take_record(self, record: object) -> None:
         try:
             self._take_checked(record, self.config)
         except ValueError:  # NaN or impossible values: the filter refused them, state intact
@@ -242,8 +279,8 @@ class OnboardPerception:
             last_altimeter_m=self._last_altimeter_m, filter_counters=counters,
             filter_rejected=sum(c["rejected"] for c in counters.values()), rejected_records=self._rejected_records,
             frames_used=self._frames_used, frames_skipped=self._frames_skipped,
-            frames_mapped=self._map.frames_mapped,
-            measured_last_frame=0 if last is None else len(last.measurements), drift=self._map.drift,
+            frames_mapped=self._batch.frames_mapped,
+            measured_last_frame=0 if last is None else len(last.measurements), drift=self._batch.drift,
         )
 
     @property
@@ -304,17 +341,34 @@ class OnboardPerception:
 
     @property
     def frames_measured(self) -> int:
-        """Frames the height pipeline has taken."""
-        return self._map.frames_measured
+        """Frames the height pipeline has taken (as of the newest results taken back)."""
+        return self._batch.frames_measured
+
+    def tracked_targets(self) -> tuple[TargetHeight, ...]:
+        """Every target with its height and its newest detection only, as of the newest
+        results taken back: what the control loop reads (with the map process, without
+        waiting for it)."""
+        if self._worker is not None:
+            return self._batch.targets or ()
+        return latest_only(self._map.targets())
 
     def targets(self) -> list[TargetHeight]:
-        """Every target so far with its height."""
-        return self._map.targets()
+        """Every target so far with its height (every frame sent taken back first)."""
+        if self._worker is None:
+            return self._map.targets()
+        self._collect()
+        return self._worker.query("targets")
 
     def mapped_targets(self) -> list[MappedTarget]:
         """Targets placed on the map, fragments folded (:meth:`SurveyMap.mapped_targets`)."""
-        return self._map.mapped_targets()
+        if self._worker is None:
+            return self._map.mapped_targets()
+        self._collect()
+        return self._worker.query("mapped_targets")
 
     def map_raster(self, targets: list[MappedTarget] | None = None) -> MapRaster | None:
         """The map raster with ``targets`` (default: the mapped ones); None before any frame is mapped."""
-        return self._map.raster(targets)
+        if self._worker is None:
+            return self._map.raster(targets)
+        self._collect()
+        return self._worker.query("raster", targets)

@@ -191,7 +191,7 @@ class ShadowPitchLoop:
         reads seabed positions (fixed) and heights (which settle over many frames)."""
         if self._targets_cache is None or now_s - self._targets_cache[0] >= self.targets_refresh_s \
                 or now_s < self._targets_cache[0]:
-            self._targets_cache = (now_s, onboard.targets())
+            self._targets_cache = (now_s, list(onboard.tracked_targets()))
         return self._targets_cache[1]
 
     def _motion(self, onboard: OnboardPerception, speed_m_s: float) -> tuple[float, float]:

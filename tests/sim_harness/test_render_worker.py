@@ -85,8 +85,8 @@ def test_a_dead_render_process_is_reported_not_waited_for(renderer) -> None:
     worker = RenderWorker(renderer, default_pose_factory, keep_label_images=False)
     seq = worker.submit(0.0, _pose(renderer, 0))
     worker.result(seq)
-    worker._process.kill()
-    worker._process.wait()
+    worker.process.kill()
+    worker.process.wait()
     with pytest.raises(RenderWorkerError, match="render process"):  # on the send or on the wait
         worker.result(worker.submit(0.1, _pose(renderer, 1)))
     worker.close()

@@ -1,0 +1,149 @@
+"""A helper process: a fresh interpreter running ``python -m MODULE`` that takes messages on
+its stdin and answers, in order, on its stdout; each message a length-prefixed pickle.
+
+A fresh interpreter, not a fork (the dry run has threads running and a forked copy of their
+locks could hang it) and not multiprocessing's spawn (which re-runs the parent's main
+script). A reader thread takes each reply off the pipe as soon as it is written, so the
+child never waits on a full pipe with a finished answer (a sonar frame is larger than a
+pipe's buffer) and works on while the parent does. A child that dies ends the wait for its
+next reply with an error naming its exit code, never a wait forever; a Ctrl-C reaches the
+parent only (the child ignores SIGINT: the parent decides what stops).
+
+Used by :mod:`sim_harness.render_worker` (the simulator's sonar pings) and
+:mod:`perception.mapping.map_process` (the on-board frame-to-map chain).
+"""
+
+from __future__ import annotations
+
+import collections
+import os
+import pickle
+import signal
+import struct
+import subprocess
+import sys
+import threading
+from typing import IO, Any
+
+_HEADER = struct.Struct("<Q")
+
+
+class ChildProcessGone(RuntimeError):
+    """The helper process died or sent something it should not."""
+
+
+def write_message(stream: IO[bytes], obj: Any) -> None:
+    """One length-prefixed pickle, flushed."""
+    data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+    stream.write(_HEADER.pack(len(data)))
+    stream.write(data)
+    stream.flush()
+
+
+def read_message(stream: IO[bytes]) -> Any:
+    """The next length-prefixed pickle; EOFError at the end of the stream."""
+    header = _read_exactly(stream, _HEADER.size)
+    return pickle.loads(_read_exactly(stream, _HEADER.unpack(header)[0]))
+
+
+def _read_exactly(stream: IO[bytes], n: int) -> bytes:
+    chunks, remaining = [], n
+    while remaining:
+        chunk = stream.read(remaining)
+        if not chunk:
+            raise EOFError("the stream ended")
+        chunks.append(chunk)
+        remaining -= len(chunk)
+    return b"".join(chunks)
+
+
+def child_streams() -> tuple[IO[bytes], IO[bytes]]:
+    """In the child: (its messages, its replies), with SIGINT ignored and anything the child
+    prints sent to stderr, away from the replies."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    replies = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
+    os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # C-level prints too
+    return sys.stdin.buffer, replies
+
+
+class ChildProcess:
+    """``python -m module`` with messages to it (:meth:`send`) and its replies in order
+    (:meth:`receive`); ``what`` names it in errors ("the sonar render process")."""
+
+    def __init__(self, module: str, *, what: str, error: type[RuntimeError] = ChildProcessGone) -> None:
+        self._what = what
+        self._error = error
+        self._process = subprocess.Popen(
+            [sys.executable, "-m", module], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+            env={**os.environ, "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "1")})
+        assert self._process.stdin is not None and self._process.stdout is not None
+        self._to_child = self._process.stdin
+        self._from_child = self._process.stdout
+        self._replies: collections.deque[Any] = collections.deque()
+        self._arrived = threading.Condition()
+        self._ended: str | None = None  # why the replies stopped, once they have
+        self._closed = False
+        self._reader = threading.Thread(target=self._read_replies, name=f"{module}-reader", daemon=True)
+        self._reader.start()
+
+    def _read_replies(self) -> None:
+        while True:
+            try:
+                reply = read_message(self._from_child)
+            except (EOFError, OSError) as exc:
+                with self._arrived:
+                    self._ended = f"{self._what} ended (exit code {self._process.wait()}): {exc}"
+                    self._arrived.notify_all()
+                return
+            except Exception as exc:  # a reply that does not unpickle: stop the child, say so
+                self._process.kill()
+                with self._arrived:
+                    self._ended = f"{self._what} sent a reply that cannot be read: {exc!r}"
+                    self._arrived.notify_all()
+                return
+            with self._arrived:
+                self._replies.append(reply)
+                self._arrived.notify_all()
+
+    @property
+    def process(self) -> subprocess.Popen[bytes]:
+        """The child (tests kill it to see the death reported)."""
+        return self._process
+
+    def send(self, obj: Any) -> None:
+        """One message to the child."""
+        try:
+            write_message(self._to_child, obj)
+        except (BrokenPipeError, OSError) as exc:
+            raise self._error(f"{self._what} is gone (exit code {self._process.poll()})") from exc
+
+    def receive(self) -> Any:
+        """The child's next reply, waiting for it."""
+        with self._arrived:
+            while not self._replies:
+                if self._ended is not None:
+                    raise self._error(self._ended)
+                self._arrived.wait()
+            return self._replies.popleft()
+
+    def close(self) -> None:
+        """Ask the child to stop (``None``; it finishes what it is on) and close the pipes."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            write_message(self._to_child, None)
+        except (BrokenPipeError, OSError):
+            pass
+        try:
+            self._to_child.close()
+        except (BrokenPipeError, OSError):  # what was left to flush cannot be: close the pipe itself
+            self._to_child.raw.close()
+        try:
+            self._process.wait(2.0)
+        except subprocess.TimeoutExpired:
+            self._process.kill()
+            self._process.wait()
+        self._reader.join(2.0)
+        if not self._reader.is_alive():
+            self._from_child.close()

@@ -1,0 +1,171 @@
+"""The frame-to-map chain (:class:`perception.mapping.survey_map.SurveyMap`: heights,
+tracking, mosaic) in its own process, so that it works on one core while the controller
+works on another.
+
+The parent sends batches of stamped frames (:meth:`SurveyMapProcess.submit`) and takes
+each batch's results back later (:meth:`SurveyMapProcess.collect`); queries (the targets,
+the map) are answered after every batch sent before them. The child applies everything in
+the order sent, so its answers depend only on the frames sent and never on timing: a
+caller that collects each batch one control cycle after sending it sees every result one
+cycle late, never sometimes two. A frame the map refuses (:class:`~perception.errors.FrameFormatError`,
+:class:`~perception.errors.GeometryError`) comes back as ``None``; any other error comes
+back and is raised in the parent, as it would be in thread.
+
+The child is ``python -m perception.mapping.map_process``
+(:class:`perception.child_process.ChildProcess`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import IO, Any
+
+from perception.child_process import ChildProcess, child_streams, read_message, write_message
+from perception.errors import FrameFormatError, GeometryError
+from perception.heights.pipeline import FrameResult, TargetHeight
+from perception.mapping.survey_map import Drift, SurveyMap
+from perception.sonar_io.frame import SonarFrame
+
+#: What the parent may ask of the map (read-only methods of SurveyMap).
+QUERIES = ("targets", "mapped_targets", "raster")
+
+
+class MapProcessError(RuntimeError):
+    """The map process died or sent something it should not."""
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """One batch's results and the map's counters after it.
+
+    Attributes
+    ----------
+    results : tuple
+        Per frame sent, its :class:`FrameResult`, or None where the map refused the frame.
+    drift : Drift or None
+        The drift correction after the batch.
+    frames_mapped, frames_measured : int
+        Frames blended into the mosaic and frames measured, after the batch.
+    targets : tuple of TargetHeight or None
+        When asked for: every target after the batch, each with its newest detection only
+        (:func:`latest_only`); None when not asked for.
+    """
+
+    results: tuple[FrameResult | None, ...]
+    drift: Drift | None
+    frames_mapped: int
+    frames_measured: int
+    targets: tuple[TargetHeight, ...] | None = None
+
+
+def latest_only(targets: Sequence[TargetHeight]) -> tuple[TargetHeight, ...]:
+    """The targets with their newest detection only: what a control loop reads of them
+    (place, height, when last seen), without every frame's measurement."""
+    return tuple(replace(t, detections=t.detections[-1:]) for t in targets)
+
+
+def apply_batch(survey_map: SurveyMap, batch: Sequence[tuple[SonarFrame, bool]], *,
+                with_targets: bool = False) -> BatchResult:
+    """Add each ``(frame, mosaic)`` of ``batch`` to ``survey_map`` (in-thread and in the child
+    alike); ``with_targets``: the targets after it too (:func:`latest_only`)."""
+    results: list[FrameResult | None] = []
+    for frame, mosaic in batch:
+        try:
+            results.append(survey_map.add_frame(frame, mosaic=mosaic))
+        except (FrameFormatError, GeometryError):
+            results.append(None)
+    return BatchResult(tuple(results), survey_map.drift, survey_map.frames_mapped, survey_map.frames_measured,
+                       latest_only(survey_map.targets()) if with_targets else None)
+
+
+def serve(messages: IO[bytes], replies: IO[bytes]) -> None:
+    """The child's loop: the (empty) map, then batches and queries in order until ``None``."""
+    survey_map: SurveyMap = read_message(messages)
+    while True:
+        try:
+            message = read_message(messages)
+        except EOFError:
+            return
+        if message is None:
+            return
+        kind, payload = message
+        try:
+            if kind == "batch":
+                frames, with_targets = payload
+                reply: tuple[str, Any] = ("ok", apply_batch(survey_map, frames, with_targets=with_targets))
+            elif kind in QUERIES:
+                reply = ("ok", getattr(survey_map, kind)(*payload))
+            else:
+                reply = ("error", MapProcessError(f"unknown message {kind!r}"))
+        except Exception as exc:  # sent back and raised in the parent, where it belongs
+            reply = ("error", exc)
+        try:
+            write_message(replies, reply)
+        except (BrokenPipeError, OSError):
+            return
+
+
+class SurveyMapProcess:
+    """A :class:`SurveyMap` in a child process; one caller thread."""
+
+    def __init__(self, survey_map: SurveyMap) -> None:
+        self._child = ChildProcess("perception.mapping.map_process", what="the on-board map process",
+                                   error=MapProcessError)
+        self._child.send(survey_map)
+        self._pending = 0  # batches sent, not yet collected
+
+    @property
+    def process(self) -> Any:
+        """The child process (:attr:`perception.child_process.ChildProcess.process`)."""
+        return self._child.process
+
+    @property
+    def pending(self) -> int:
+        """Batches sent whose results have not been collected."""
+        return self._pending
+
+    def submit(self, batch: Sequence[tuple[SonarFrame, bool]], *, with_targets: bool = False) -> None:
+        """Send ``(frame, mosaic)`` pairs to be added in order; collect them later
+        (``with_targets``: with the targets after them, :func:`apply_batch`)."""
+        self._child.send(("batch", (list(batch), bool(with_targets))))
+        self._pending += 1
+
+    def collect(self) -> BatchResult:
+        """The oldest sent batch's results, waiting for them."""
+        if self._pending == 0:
+            raise MapProcessError("no batch to collect")
+        self._pending -= 1
+        return self._answer()
+
+    def query(self, name: str, *args: Any) -> Any:
+        """``SurveyMap.<name>(*args)`` after every batch sent so far; collect those first."""
+        if name not in QUERIES:
+            raise ValueError(f"unknown query {name!r} (one of {', '.join(QUERIES)})")
+        if self._pending:
+            raise MapProcessError("collect the batches sent before asking the map")
+        self._child.send((name, args))
+        return self._answer()
+
+    def _answer(self) -> Any:
+        kind, value = self._child.receive()
+        if kind == "error":
+            raise value
+        return value
+
+    def close(self) -> None:
+        """Stop the child (it finishes what it is on)."""
+        self._child.close()
+
+
+def main() -> None:
+    """The child process (:func:`perception.child_process.child_streams`)."""
+    serve(*child_streams())
+
+
+if __name__ == "__main__":
+    # Through the module's own name, so that what it pickles names its classes there, not
+    # in ``__main__``.
+    from perception.mapping.map_process import main as _main
+
+    _main()

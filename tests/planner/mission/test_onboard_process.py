@@ -1,0 +1,127 @@
+"""The frame-to-map chain in its own process (``OnboardConfig.map_process``) gives what it
+gives in thread, one call of ``process_frames`` later; a dead map process is reported, not
+waited for.
+
+Frames: a lane over two raised targets (a 15 cm cylinder and an 8 cm box) on a textured
+seabed at 1 m altitude, with the telemetry of their poses, fed to two
+:class:`OnboardPerception` side by side in two-frame batches, as a control cycle does.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from perception.mapping.map_process import MapProcessError, SurveyMapProcess
+from perception.mapping.survey_map import SurveyMap
+from planner.mission.onboard import OnboardConfig, OnboardPerception
+from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
+from sim_harness.world.materials import MATERIALS
+from sim_harness.world.texture import SeabedTexture
+from sim_harness.world.world import Seabed, TargetSpec, World
+from tests.perception.mapping.test_mosaic_render import ALTITUDE_M, PING_INTERVAL_S, RES_M, SEABED_DEPTH_M, TILT_RAD
+from tests.planner.mission.test_onboard_mosaic import _telemetry
+
+TARGETS = (TargetSpec("C", "cylinder", 3.0, -0.15, 0.2, 0.2, 0.15, material="metal"),
+           TargetSpec("B", "box", 3.6, 0.2, 0.2, 0.2, 0.08, material="concrete"))
+N_FRAMES = 36
+SPEED_M_S = 0.5
+
+
+@pytest.fixture(scope="module")
+def frames():
+    world = World(Seabed(SEABED_DEPTH_M, texture=SeabedTexture(std_db=3.0, correlation_m=0.1, seed=3)), TARGETS,
+                  MATERIALS)
+    renderer = SonarRenderer(world, SonarConfig(samples_per_beam=500))
+    out = []
+    for k in range(N_FRAMES):
+        pose = SonarPose(0.6 + SPEED_M_S * PING_INTERVAL_S * k, 0.0, SEABED_DEPTH_M - ALTITUDE_M, heading_rad=0.0,
+                         tilt_rad=TILT_RAD)
+        out.append(renderer.render(pose, k * PING_INTERVAL_S)[0])
+    return out
+
+
+def _feed(onboard: OnboardPerception, batch) -> list:
+    for frame in batch:
+        for record in _telemetry(frame, SEABED_DEPTH_M - ALTITUDE_M):
+            onboard.listener(record)
+    onboard.drain()
+    return onboard.process_frames(batch)
+
+
+def _seen(results) -> str:
+    """Each frame's measurements, exactly (repr: NaN equals NaN)."""
+    return repr([(r.frame_index, r.target_ids, [(m.r_top_m, m.r_end_m, m.azimuth_rad) for m in r.measurements])
+                 for r in results])
+
+
+def _places(targets) -> str:
+    return repr([(t.target_id, t.north_m, t.east_m, t.height_m, t.frames_seen) for t in targets])
+
+
+@pytest.mark.slow
+def test_the_map_process_answers_as_in_thread_one_cycle_later(frames) -> None:
+    config = OnboardConfig(mosaic_resolution_m=RES_M)
+    here = OnboardPerception(config)
+    there = OnboardPerception(OnboardConfig(mosaic_resolution_m=RES_M, map_process=True))
+    try:
+        batches = [frames[i:i + 2] for i in range(0, len(frames), 2)]
+        previous: list = []
+        tracked_before = _places([])
+        measured = 0
+        for batch in batches:
+            now_here = _feed(here, batch)
+            now_there = _feed(there, batch)
+            # What the process returns now is what the thread returned one call before.
+            assert _seen(now_there) == _seen(previous)
+            assert _places(there.tracked_targets()) == tracked_before
+            assert there.frames_measured == (here.frames_measured - len(now_here))
+            previous, tracked_before = now_here, _places(here.tracked_targets())
+            measured += sum(len(r.measurements) for r in now_here)
+        assert measured > 0, "the lane sees its targets"
+        # Asking for the products takes the last batch back first: then all agree.
+        assert _places(there.targets()) == _places(here.targets())
+        assert _seen([there.last_frame]) == _seen([here.last_frame])
+        assert there.status().frames_used == here.status().frames_used == N_FRAMES
+        assert there.status().frames_mapped == here.status().frames_mapped
+        assert repr([(t.north_m, t.east_m, t.height_m) for t in there.mapped_targets()]) == \
+            repr([(t.north_m, t.east_m, t.height_m) for t in here.mapped_targets()])
+        heights = sorted(t.height_m for t in here.mapped_targets() if t.height_m is not None)
+        assert heights and max(heights) == pytest.approx(0.15, abs=0.02), "the cylinder's height is measured"
+        a, b = here.map_raster(), there.map_raster()
+        assert a is not None and b is not None
+        np.testing.assert_array_equal(a.intensity, b.intensity)
+        assert (a.north_m, a.west_m) == (b.north_m, b.west_m)
+    finally:
+        there.close()
+
+
+def test_a_dead_map_process_is_reported_not_waited_for(frames) -> None:
+    onboard = OnboardPerception(OnboardConfig(mosaic_resolution_m=RES_M, map_process=True))
+    try:
+        _feed(onboard, frames[:2])
+        worker = onboard._worker  # the child, to kill it as the OOM killer would
+        assert isinstance(worker, SurveyMapProcess)
+        worker.process.kill()
+        worker.process.wait()
+        with pytest.raises(MapProcessError, match="map process"):
+            _feed(onboard, frames[2:4])  # the batch sent before the death cannot come back
+    finally:
+        onboard.close()
+
+
+def test_the_map_process_refuses_what_the_map_cannot_answer() -> None:
+    worker = SurveyMapProcess(SurveyMap())
+    try:
+        with pytest.raises(ValueError, match="unknown query 'add_frame'"):
+            worker.query("add_frame")
+        with pytest.raises(MapProcessError, match="no batch to collect"):
+            worker.collect()
+        assert worker.query("targets") == []
+        assert worker.query("raster", None) is None  # no frame mapped yet
+        assert math.isfinite(worker.process.pid)
+    finally:
+        worker.close()
+    assert worker.process.wait(5.0) == 0
