@@ -138,7 +138,7 @@ class ChildProcess:
         try:
             self._to_child.close()
         except (BrokenPipeError, OSError):  # what was left to flush cannot be: close the pipe itself
-            self._to_child.raw.close()
+            getattr(self._to_child, "raw", self._to_child).close()
         try:
             self._process.wait(2.0)
         except subprocess.TimeoutExpired:

@@ -118,6 +118,7 @@ class AltitudeFilter:
         self._rho_g = pascals_per_metre(specific_gravity=c.specific_gravity, gravity_m_s2=c.gravity_m_s2)
         self._smoothed: WindowSmoother | None = None
         self._accel_psd = c.accel_psd_m2_s3
+        self._rate_released = False
 
     def set_maneuvering(self, maneuvering: bool) -> None:
         """Say whether the vehicle is now changing depth on purpose.
@@ -129,6 +130,15 @@ class AltitudeFilter:
         """
         c = self.config
         self._accel_psd = c.maneuver_accel_psd_m2_s3 if maneuvering else c.accel_psd_m2_s3
+
+    def release_seabed_rate(self) -> None:
+        """Say that the ground track has just changed (a new lane, a turn, a stop): the
+        seabed's rate under the vehicle (slope times ground speed) is no longer what it
+        was. At the next measurement the four-state model's ``db/dt`` gets
+        ``initial_seabed_rate_std_m_s**2`` of process noise (kept with that step, as a
+        reset's), so it is learnt again from the altimeter instead of gated against; the
+        three-state model has no rate and ignores this."""
+        self._rate_released = self._model.n_states == 4
 
     @property
     def model(self) -> VerticalModel:
@@ -313,25 +323,33 @@ class AltitudeFilter:
         kf.x, kf.P = last.x.reshape(n, 1).copy(), last.p.copy()
         if not same_step:
             kf.predict(F=f, Q=model.noise(dt, self._accel_psd))
+        q_extra = None
+        if self._rate_released:
+            # The rate's release (release_seabed_rate): process noise at this time, a step
+            # of its own (the flag stays up until a step keeps it: a gated measurement does not).
+            q_extra = np.zeros((n, n))
+            q_extra[3, 3] = c.initial_seabed_rate_std_m_s**2
+            kf.P = kf.P + q_extra
+            same_step = False
         x_prior, p_prior = kf.x.reshape(n).copy(), kf.P.copy()
         innovation = z - float((h @ kf.x)[0, 0])
         s = float((h @ kf.P @ h.T)[0, 0]) + r
         nis = innovation * innovation / s
         status = "accepted"
-        q_extra = None
         warming_up = counters.accepted + counters.reinitialised < c.gate_warmup
         if nis > self._gate and not warming_up:
             self._consecutive[sensor] += 1
             if self._consecutive[sensor] < c.reinit_after:
                 counters.gated += 1
                 return UpdateResult("gated", nis)
-            q_extra = np.zeros((n, n))
+            reset = np.zeros((n, n))
             if altitude:  # the seabed depth
-                q_extra[2, 2] = c.reinit_std_m**2
+                reset[2, 2] = c.reinit_std_m**2
             else:  # the vehicle depth and speed
-                q_extra[0, 0] = c.reinit_std_m**2
-                q_extra[1, 1] = c.reinit_speed_std_m_s**2
-            kf.P = kf.P + q_extra
+                reset[0, 0] = c.reinit_std_m**2
+                reset[1, 1] = c.reinit_speed_std_m_s**2
+            kf.P = kf.P + reset
+            q_extra = reset if q_extra is None else q_extra + reset
             p_prior = kf.P.copy()
             # A reset is process noise at this time: a step of its own (zero interval)
             # when the step at this time already holds a measurement.
@@ -341,6 +359,7 @@ class AltitudeFilter:
         else:
             counters.accepted += 1
         self._consecutive[sensor] = 0
+        self._rate_released = False
         kf.update(np.array([[z]]), R=np.array([[r]]), H=h)
         x_new = kf.x.reshape(n).copy()
         p_new = 0.5 * (kf.P + kf.P.T)

@@ -86,6 +86,11 @@ class ExecutorConfig:
     max_seabed_std_m : float
         No new depth target is derived from a seabed estimate less certain than this (m,
         1-sigma); the vehicle keeps its last one meanwhile.
+    slope_lead_s : float
+        Over a rising seabed the depth target is taken where the seabed will be this long
+        ahead along the setpoint's velocity (:mod:`planner.mission.seabed_slope`), s; 0
+        follows the estimate under the vehicle. The default is the lag measured against
+        the simulator: the vehicle trailed a 2 deg slope by about 3 s.
     heading_tolerance_rad, turn_timeout_s : float
         At each lane start the vehicle turns in place until its heading is this close to
         the lane's (a forward-looking sonar must face along the lane), or the time is up.
@@ -124,6 +129,7 @@ class ExecutorConfig:
     heading_tolerance_rad: float = math.radians(5.0)
     max_seabed_std_m: float = 0.3
     turn_timeout_s: float = 30.0
+    slope_lead_s: float = 3.0
 
     def __post_init__(self) -> None:
         for name in ("control_period_s", "acceptance_radius_m", "settle_tolerance_m", "speed_m_s", "accel_m_s2",
@@ -138,6 +144,8 @@ class ExecutorConfig:
                 raise ValueError(f"ExecutorConfig.{name} must be 'hold' or 'surface', got {getattr(self, name)!r}")
         if self.topside not in ("required", "absent"):
             raise ValueError(f"ExecutorConfig.topside must be 'required' or 'absent', got {self.topside!r}")
+        if not (math.isfinite(self.slope_lead_s) and 0.0 <= self.slope_lead_s <= 30.0):
+            raise ValueError(f"ExecutorConfig.slope_lead_s must be in [0, 30] s, got {self.slope_lead_s!r}")
 
 
 @dataclass

@@ -3,7 +3,8 @@
 The setpoint is a position + velocity moving along the current leg
 (:mod:`planner.mission.setpoints`), its depth ramped toward the safe depth for the
 wanted altitude (:func:`planner.mission.safety.safe_depth_for_altitude` on the altitude
-filter's seabed estimate), in the vehicle's EKF frame (the plan's waypoints shifted by
+filter's seabed estimate; over a rising seabed on where it will be ``slope_lead_s`` ahead,
+:mod:`planner.mission.seabed_slope`), in the vehicle's EKF frame (the plan's waypoints shifted by
 the plan origin's offset in it). The tilt goes out when it changes (at most once a
 control period) and every 2 s, without waiting for its acknowledgement; it is in the
 mount's own frame (the tilt source knows which).
@@ -20,6 +21,7 @@ from planner.mission.executor_config import DiveResult, ExecutorConfig
 from planner.mission.onboard import OnboardPerception
 from planner.mission.run_folder import RunFolder
 from planner.mission.safety import safe_depth_for_altitude
+from planner.mission.seabed_slope import SeabedSlope
 from planner.mission.setpoints import DepthRamp, LegSetpoint, Setpoint
 from planner.mission.vehicle import Vehicle
 from planner.survey.plan import PlanWaypoint
@@ -41,6 +43,7 @@ class Helm:
         self.tilt_cmd_rad = math.nan
         self._depth_ramp: DepthRamp | None = None
         self._tilt_sent_s = -math.inf
+        self.slope = SeabedSlope()
 
     def here(self) -> tuple[float, float] | None:
         """The vehicle's position in the plan's frame, m (None before any)."""
@@ -54,12 +57,14 @@ class Helm:
         cfg = self.config
         self.leg = LegSetpoint(start, (wp.north_m, wp.east_m), speed_m_s=cfg.speed_m_s, accel_m_s2=cfg.accel_m_s2,
                                lead_limit_m=cfg.lead_limit_m)
+        self.onboard.ground_track_changed()
         return self.leg
 
     def hold_at(self, wp: PlanWaypoint) -> None:
         """A setpoint resting at ``wp``."""
         self.leg = LegSetpoint((wp.north_m, wp.east_m), (wp.north_m, wp.east_m), speed_m_s=0.0,
                                accel_m_s2=self.config.accel_m_s2, lead_limit_m=self.config.lead_limit_m)
+        self.onboard.ground_track_changed()
 
     def send_setpoint(self, now: float, altitude_m: float) -> None:
         """The leg's moving setpoint with its safe depth, as GUIDED posvel."""
@@ -74,8 +79,14 @@ class Helm:
                                          vertical_speed_m_s=cfg.vertical_speed_m_s,
                                          accel_m_s2=cfg.vertical_accel_m_s2)
         if math.isfinite(seabed) and math.isfinite(seabed_std) and seabed_std <= cfg.max_seabed_std_m:
+            here = self.here()
+            if here is not None:
+                self.slope.add(here[0], here[1], seabed, seabed_std)
+            # A seabed rising ahead is met in time (shallower only: one falling away is
+            # followed late, which errs high).
+            rise = self.slope.rise_ahead_m(sp.vel_north_m_s, sp.vel_east_m_s, cfg.slope_lead_s)
             try:
-                cmd = safe_depth_for_altitude(altitude_m, seabed_depth_m=seabed, seabed_std_m=seabed_std,
+                cmd = safe_depth_for_altitude(altitude_m, seabed_depth_m=seabed - rise, seabed_std_m=seabed_std,
                                               limits=cfg.safety)
             except SafetyViolation as exc:
                 raise self._abort(exc.reason, str(exc)) from exc

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 from perception.heights.pipeline import FrameResult, TargetHeight
 from perception.mapping.heights_layer import MappedTarget
-from perception.mapping.map_process import BatchResult, SurveyMapProcess, apply_batch, latest_only
+from perception.mapping.map_process import BatchResult
 from perception.mapping.mosaic import MosaicConfig
 from perception.mapping.products import MapRaster
 from perception.mapping.registration import RegistrationConfig
@@ -44,6 +44,7 @@ from perception.mapping.survey_map import Drift, SurveyMap
 from perception.navigation.altitude_filter import AltitudeFilter, AltitudeFilterConfig
 from perception.navigation.history import NavigationHistory, NavSample
 from perception.sonar_io.frame import SonarFrame
+from planner.mission.onboard_map import OnboardMap
 from vehicle_link.telemetry import Attitude, GlobalPosition, LocalPositionNed, MountStatus, Rangefinder
 
 
@@ -72,9 +73,27 @@ class OnboardConfig:
         (+0.27, +0.18) m where the DVL had drifted by (-0.29, -0.19) m.
     nav_history_s : float
         How much navigation history is kept to stamp frames, s.
+    seabed_rate_psd_m2_s3 : float or None
+        With a value, the altitude filter's seabed-rate state (``AltitudeFilterConfig``),
+        released at every change of ground track
+        (:meth:`OnboardPerception.ground_track_changed`). None (default): the seabed a
+        random walk in time. On a 3 deg slope the random walk falls behind the rising
+        seabed, is gated against and catches up in resets (steps of up to 12 cm), which
+        the rate state avoids; but over the default dive's targets it took a target
+        passing under the altimeter for the seabed rising (the filter's altitude dipped
+        below the pass altitude's band 4-5 times in 240 s), so it stays off until it can tell
+        the two apart. The helm's slope lead (``ExecutorConfig.slope_lead_s``) works on
+        either.
+    seabed_rate_release_std_m_s : float
+        The rate's 1-sigma when released, m/s: the steepest slope expected (about 3.4
+        deg) at the survey speed (0.5 m/s).
     map_process : bool
         Run the frame-to-map chain in a child process (module docstring); close the
         perception with :meth:`OnboardPerception.close`.
+    tracked_targets_every_s : float
+        With the map process: how often (in frame time) the targets come back with a
+        batch for :meth:`OnboardPerception.tracked_targets`, s (the pitch loop reads them
+        every 0.5 s: ``ShadowPitchLoop.targets_refresh_s``).
     """
 
     depth_std_m: float = 0.01
@@ -83,7 +102,10 @@ class OnboardConfig:
     mosaic_resolution_m: float = 0.01
     registration: bool = True
     nav_history_s: float = 30.0
+    seabed_rate_psd_m2_s3: float | None = None
+    seabed_rate_release_std_m_s: float = 0.03
     map_process: bool = False
+    tracked_targets_every_s: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -132,10 +154,13 @@ class OnboardPerception:
 
     def __init__(self, config: OnboardConfig | None = None):
         self.config = cfg = config or OnboardConfig()
-        self._filter = AltitudeFilter(AltitudeFilterConfig(specific_gravity=cfg.specific_gravity))
+        self._filter = AltitudeFilter(AltitudeFilterConfig(specific_gravity=cfg.specific_gravity,
+                                                           seabed_rate_psd_m2_s3=cfg.seabed_rate_psd_m2_s3,
+                                                           initial_seabed_rate_std_m_s=cfg.seabed_rate_release_std_m_s))
         self._nav = NavigationHistory(cfg.nav_history_s)
-        self._map = SurveyMap(mosaic=MosaicConfig(resolution_m=cfg.mosaic_resolution_m),
-                              registration=RegistrationConfig() if cfg.registration else None)
+        self._map = OnboardMap(SurveyMap(mosaic=MosaicConfig(resolution_m=cfg.mosaic_resolution_m),
+                                         registration=RegistrationConfig() if cfg.registration else None),
+                               process=cfg.map_process, tracked_targets_every_s=cfg.tracked_targets_every_s)
         self._inbox: queue.SimpleQueue[object] = queue.SimpleQueue()
         self._last_altimeter_s = -math.inf
         self._last_depth_s = -math.inf
@@ -149,9 +174,6 @@ class OnboardPerception:
         self._seen_distance_sensor = False
         self._last_frame: FrameResult | None = None
         self._mount_frame = "body"
-        self._worker = SurveyMapProcess(self._map) if cfg.map_process else None
-        # The map's counters and targets as of the newest frames taken back.
-        self._batch = BatchResult((), None, 0, 0, ())
 
     # ------------------------------------------------------------------- verbs
     def listener(self, record: object) -> None:
@@ -179,6 +201,11 @@ class OnboardPerception:
             raise ValueError(f"mount frame must be 'earth' or 'body', got {frame!r}")
         self._mount_frame = frame
 
+    def ground_track_changed(self) -> None:
+        """Tell the altitude filter that the vehicle starts a new leg, turn or stop: the
+        seabed's rate under it is learnt again (:meth:`AltitudeFilter.release_seabed_rate`)."""
+        self._filter.release_seabed_rate()
+
     def expect_vertical_motion(self, moving: bool) -> None:
         """Tell the altitude filter that a commanded depth change is (or is no longer) under way."""
         self._filter.set_maneuvering(moving)
@@ -188,7 +215,6 @@ class OnboardPerception:
 
         In thread: the results of ``frames``. With the map process: ``frames`` are sent
         and the results of those sent at the previous call are returned."""
-        results = self._collect()
         batch = []
         for raw in frames:
             frame = self.stamp(raw)
@@ -196,36 +222,23 @@ class OnboardPerception:
                 self._frames_skipped += 1
                 continue
             batch.append((frame, self._mapping))
-        if batch:
-            if self._worker is not None:
-                self._worker.submit(batch, with_targets=True)
-            else:
-                results.extend(self._take(apply_batch(self._map, batch)))
-        return results
+        return self._account(self._map.add(batch))
 
-    def _collect(self) -> list[FrameResult]:
-        """The results of every batch sent to the map process and not yet taken back."""
-        results: list[FrameResult] = []
-        while self._worker is not None and self._worker.pending:
-            results.extend(self._take(self._worker.collect()))
-        return results
-
-    def _take(self, batch: BatchResult) -> list[FrameResult]:
+    def _account(self, batches: list[BatchResult]) -> list[FrameResult]:
         results = []
-        for result in batch.results:
-            if result is None:
-                self._frames_skipped += 1
-                continue
-            self._frames_used += 1
-            self._last_frame = result
-            results.append(result)
-        self._batch = batch
+        for done in batches:
+            for result in done.results:
+                if result is None:  # refused by the map (its frame format or geometry)
+                    self._frames_skipped += 1
+                    continue
+                self._frames_used += 1
+                self._last_frame = result
+                results.append(result)
         return results
 
     def close(self) -> None:
         """Stop the map process, if any (the products are read before)."""
-        if self._worker is not None:
-            self._worker.close()
+        self._map.close()
 
     # ---------------------------------------------------------------- telemetry
     def _in_order(self, time_s: float) -> bool:
@@ -279,8 +292,8 @@ class OnboardPerception:
             last_altimeter_m=self._last_altimeter_m, filter_counters=counters,
             filter_rejected=sum(c["rejected"] for c in counters.values()), rejected_records=self._rejected_records,
             frames_used=self._frames_used, frames_skipped=self._frames_skipped,
-            frames_mapped=self._batch.frames_mapped,
-            measured_last_frame=0 if last is None else len(last.measurements), drift=self._batch.drift,
+            frames_mapped=self._map.frames_mapped,
+            measured_last_frame=0 if last is None else len(last.measurements), drift=self._map.drift,
         )
 
     @property
@@ -342,33 +355,28 @@ class OnboardPerception:
     @property
     def frames_measured(self) -> int:
         """Frames the height pipeline has taken (as of the newest results taken back)."""
-        return self._batch.frames_measured
+        return self._map.frames_measured
 
     def tracked_targets(self) -> tuple[TargetHeight, ...]:
         """Every target with its height and its newest detection only, as of the newest
         results taken back: what the control loop reads (with the map process, without
         waiting for it)."""
-        if self._worker is not None:
-            return self._batch.targets or ()
-        return latest_only(self._map.targets())
+        return self._map.tracked_targets()
 
     def targets(self) -> list[TargetHeight]:
         """Every target so far with its height (every frame sent taken back first)."""
-        if self._worker is None:
-            return self._map.targets()
-        self._collect()
-        return self._worker.query("targets")
+        out = self._map.targets()
+        self._account(self._map.take_ready())
+        return out
 
     def mapped_targets(self) -> list[MappedTarget]:
         """Targets placed on the map, fragments folded (:meth:`SurveyMap.mapped_targets`)."""
-        if self._worker is None:
-            return self._map.mapped_targets()
-        self._collect()
-        return self._worker.query("mapped_targets")
+        out = self._map.mapped_targets()
+        self._account(self._map.take_ready())
+        return out
 
     def map_raster(self, targets: list[MappedTarget] | None = None) -> MapRaster | None:
         """The map raster with ``targets`` (default: the mapped ones); None before any frame is mapped."""
-        if self._worker is None:
-            return self._map.raster(targets)
-        self._collect()
-        return self._worker.query("raster", targets)
+        out = self._map.raster(targets)
+        self._account(self._map.take_ready())
+        return out

@@ -93,11 +93,11 @@ class StepFit:
 @dataclass(frozen=True)
 class _Bank:
     """Templates ``Phi((centre + offset - x) / blur)``, x = 0 .. m - 1: ``t`` (m, K) and
-    ``t2 = t * t``; ``offsets`` and ``blurs`` (K,) each; ``n_blurs`` blurs per offset
-    (offsets vary slowest)."""
+    ``t2 = t * t``, side by side in ``t_t2`` (m, 2 K: one product gives both sums);
+    ``offsets`` and ``blurs`` (K,) each; ``n_blurs`` blurs per offset (offsets vary slowest)."""
 
     t: FloatArray
-    t2: FloatArray
+    t_t2: FloatArray
     offsets: FloatArray
     blurs: FloatArray
     n_blurs: int
@@ -112,11 +112,11 @@ def _bank(m: int, centre: float, reach: float, step: float, n_blurs: int, widest
     off, blur = (v.ravel() for v in np.meshgrid(offsets, blurs, indexing="ij"))
     x = np.arange(m, dtype=np.float64)
     t = ndtr((centre + off[None, :] - x[:, None]) / blur[None, :])
-    t2 = t * t
-    for array in (t, t2, off, blur):
+    t_t2 = np.ascontiguousarray(np.hstack([t, t * t]))
+    for array in (t, t_t2, off, blur):
         array.flags.writeable = False
     ratio = float(blurs[1] / blurs[0]) if n_blurs > 1 else 1.0
-    return _Bank(t=t, t2=t2, offsets=off, blurs=blur, n_blurs=n_blurs, blur_ratio=ratio)
+    return _Bank(t=t, t_t2=t_t2, offsets=off, blurs=blur, n_blurs=n_blurs, blur_ratio=ratio)
 
 
 @dataclass(frozen=True)
@@ -133,22 +133,23 @@ class _Search:
 
 
 def _search(y: FloatArray, w: FloatArray, bank: _Bank, sign: FloatArray) -> _Search:
-    """Weighted least squares of every profile against every template (three products)."""
+    """Weighted least squares of every profile against every template (one product)."""
+    n = y.shape[0]
+    k = bank.t.shape[1]
     wy = w * y
     sw = np.add.reduce(w, axis=1)[:, None]
     sy = np.add.reduce(wy, axis=1)[:, None]
-    sp = w @ bank.t
-    num = wy @ bank.t
-    num *= sw
+    sums = np.concatenate((w, wy)) @ bank.t_t2  # rows: w then wy; columns: t then t2
+    sp = sums[:n, :k]
+    num = sums[n:, :k] * sw
     num -= sp * sy  # sw * spy - sp * sy: b times det
-    det = w @ bank.t2
-    det *= sw
+    det = sums[:n, k:] * sw
     det -= sp * sp  # sw * spp - sp^2 >= 0 (0 for a template flat over the window)
     det += 1e-12 * sw * sw
     score = num * np.abs(num)
     score *= sign[:, None]
     score /= det  # the explained sum of squares times sw, signed
-    rows = np.arange(y.shape[0])
+    rows = np.arange(n)
     best = score.argmax(axis=1)
     b = num[rows, best] / det[rows, best]
     a = (sy[:, 0] - b * sp[rows, best]) / sw[:, 0]
@@ -182,14 +183,17 @@ def _vertex_2d(cube: FloatArray, rows: NDArray[np.intp], j: NDArray[np.intp],
     direction at a time: with a blur between the bank's, the weighted scores' ridge runs
     oblique, and the best edge at the nearest blur is off the vertex."""
     n_j, n_k = cube.shape[1], cube.shape[2]
-    jm, jp = np.maximum(j - 1, 0), np.minimum(j + 1, n_j - 1)
-    km, kp = np.maximum(k - 1, 0), np.minimum(k + 1, n_k - 1)
-    f0 = cube[rows, j, k]
-    gj = 0.5 * (cube[rows, jp, k] - cube[rows, jm, k])
-    gk = 0.5 * (cube[rows, j, kp] - cube[rows, j, km])
-    hjj = cube[rows, jp, k] - 2.0 * f0 + cube[rows, jm, k]
-    hkk = cube[rows, j, kp] - 2.0 * f0 + cube[rows, j, km]
-    hjk = 0.25 * (cube[rows, jp, kp] - cube[rows, jp, km] - cube[rows, jm, kp] + cube[rows, jm, km])
+    step = np.arange(-1, 2)
+    # The 3 x 3 scores about each best at once (indices clamped at the bank's edges).
+    jj = np.clip(j[:, None] + step[None, :], 0, n_j - 1)
+    kk = np.clip(k[:, None] + step[None, :], 0, n_k - 1)
+    c = cube[rows[:, None, None], jj[:, :, None], kk[:, None, :]]
+    f0 = c[:, 1, 1]
+    gj = 0.5 * (c[:, 2, 1] - c[:, 0, 1])
+    gk = 0.5 * (c[:, 1, 2] - c[:, 1, 0])
+    hjj = c[:, 2, 1] - 2.0 * f0 + c[:, 0, 1]
+    hkk = c[:, 1, 2] - 2.0 * f0 + c[:, 1, 0]
+    hjk = 0.25 * (c[:, 2, 2] - c[:, 2, 0] - c[:, 0, 2] + c[:, 0, 0])
     inner_j = (j > 0) & (j < n_j - 1)
     inner_k = (k > 0) & (k < n_k - 1)
     hjk = np.where(inner_j & inner_k, hjk, 0.0)

@@ -221,6 +221,42 @@ def test_seabed_rate_state_follows_a_sloping_seabed() -> None:
     assert x.shape == (4,) and x[3] == pytest.approx(0.02, abs=0.003)
 
 
+def test_a_released_seabed_rate_is_learnt_again_after_a_turn() -> None:
+    """Up a 2 cm/s rise, a 5 s turn in place (no change), then back down it: released at
+    each change of track, the rate is learnt again with no reading gated and no reset;
+    not released, the old rate is carried into the turn: readings are gated and the
+    altitude is off by half as much again."""
+
+    def fly(release: bool) -> tuple[AltitudeFilter, float]:
+        g = np.random.default_rng(11)
+        flt = AltitudeFilter(AltitudeFilterConfig(seabed_rate_psd_m2_s3=1e-6, initial_seabed_rate_std_m_s=0.03))
+        seabed, worst = 8.0, 0.0
+        for k in range(700):
+            t = 0.1 * k
+            rate = -0.02 if t < 30.0 else (0.0 if t < 35.0 else 0.02)  # seabed depth change, m/s
+            if release and k in (300, 350):
+                flt.release_seabed_rate()
+            seabed += 0.1 * rate
+            flt.update_depth(t, 5.0 + 0.01 * g.standard_normal(), 0.01)
+            if k % 2:
+                flt.update_altimeter(t, seabed - 5.0 + 0.02 * g.standard_normal(), 0.02)
+            if t > 20.0:
+                worst = max(worst, abs(flt.altitude_at(t).mean - (seabed - 5.0)))
+        return flt, worst
+
+    released, worst_released = fly(True)
+    carried, worst_carried = fly(False)
+    assert released.counters["altimeter"].gated == 0 and released.counters["altimeter"].reinitialised == 0
+    assert worst_released < 0.03  # m, against 2 cm of altimeter noise
+    assert carried.counters["altimeter"].gated >= 2
+    assert worst_carried > 1.4 * worst_released
+    # The three-state model has no rate to release: nothing changes.
+    plain = AltitudeFilter(AltitudeFilterConfig())
+    plain.release_seabed_rate()
+    plain.update_depth(0.0, 5.0, 0.01)
+    assert plain.filtered_state()[0].shape == (3,)
+
+
 def _hover(flt: AltitudeFilter, rng: np.random.Generator, t0: float, t1: float, *, depth: float = 5.0,
            seabed: float = 8.0, spikes: dict[float, tuple[str, float]] | None = None,
            altimeter_gap: tuple[float, float] | None = None) -> dict[str, list[str]]:

@@ -224,6 +224,27 @@ def test_a_tiny_site_flies_with_its_example_targets(tmp_path: Path) -> None:
     assert truth == {"BLOCK", "CAN", "STONE", "PIPE"}
 
 
+@pytest.mark.slow
+def test_a_sloping_site_is_flown_above_its_clearance(tmp_path: Path) -> None:
+    """6 m x 1.3 m on a 3 deg slope, deeper to the south: the lanes run up and down it. The
+    helm leads the rising seabed (``ExecutorConfig.slope_lead_s``): lowest 0.513-0.550 m in
+    five dives. Trailing it (``slope_lead_s = 0``, as before the lead) the lowest was
+    0.494-0.510 m in three, once 6 mm below the 0.50 m clearance, on the first lane north.
+    (The altitude filter's seabed estimate climbs the slope in steps: planner.mission.onboard,
+    ``seabed_rate_psd_m2_s3``.)"""
+    folder = tmp_path / "slope"
+    code, _, err = site(folder, write_area(tmp_path, rectangle(6.0, 1.3)), "--depth-m", "6", "--slope-deg", "3",
+                        "--slope-direction-deg", "180")
+    assert code == 0, err
+    code, _, err = run_cli(["sim", str(folder), "--out", str(tmp_path / "run"), "--no-progress"])
+    assert code == 0, err
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["status"] == "completed"
+    allowed = summary["min_altitude_allowed_m"]
+    assert summary["min_clearance_m"] >= allowed, (summary["min_clearance_m"], allowed)
+    assert not [e for e in summary["altitude_excursions_true"] if e["check"] == "clearance"]
+
+
 # -- every mistake: exit 2, one line naming the file (or option) and the key -----------------------
 def refused(argv: list[str], *names: str) -> str:
     code, _, err = run_cli(argv)

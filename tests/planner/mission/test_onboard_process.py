@@ -65,7 +65,8 @@ def _places(targets) -> str:
 def test_the_map_process_answers_as_in_thread_one_cycle_later(frames) -> None:
     config = OnboardConfig(mosaic_resolution_m=RES_M)
     here = OnboardPerception(config)
-    there = OnboardPerception(OnboardConfig(mosaic_resolution_m=RES_M, map_process=True))
+    # Targets back with every batch here (0 s), to compare them cycle by cycle.
+    there = OnboardPerception(OnboardConfig(mosaic_resolution_m=RES_M, map_process=True, tracked_targets_every_s=0.0))
     try:
         batches = [frames[i:i + 2] for i in range(0, len(frames), 2)]
         previous: list = []
@@ -102,10 +103,10 @@ def test_a_dead_map_process_is_reported_not_waited_for(frames) -> None:
     onboard = OnboardPerception(OnboardConfig(mosaic_resolution_m=RES_M, map_process=True))
     try:
         _feed(onboard, frames[:2])
-        worker = onboard._worker  # the child, to kill it as the OOM killer would
-        assert isinstance(worker, SurveyMapProcess)
-        worker.process.kill()
-        worker.process.wait()
+        child = onboard._map.process  # the child, to kill it as the OOM killer would
+        assert child is not None
+        child.kill()
+        child.wait()
         with pytest.raises(MapProcessError, match="map process"):
             _feed(onboard, frames[2:4])  # the batch sent before the death cannot come back
     finally:
@@ -125,3 +126,21 @@ def test_the_map_process_refuses_what_the_map_cannot_answer() -> None:
     finally:
         worker.close()
     assert worker.process.wait(5.0) == 0
+
+
+def test_the_targets_come_back_at_their_interval(frames) -> None:
+    """With the default interval the control loop's targets change only every 0.5 s of frames."""
+    onboard = OnboardPerception(OnboardConfig(mosaic_resolution_m=RES_M, map_process=True))
+    try:
+        changed_at = []
+        last = onboard.tracked_targets()
+        for i in range(0, len(frames), 2):
+            _feed(onboard, frames[i:i + 2])
+            now = onboard.tracked_targets()
+            if now is not last:
+                changed_at.append(frames[i].timestamp_s)
+                last = now
+        steps = np.diff(changed_at)
+        assert len(changed_at) >= 5 and np.all(steps >= 0.5 - 1e-9), changed_at
+    finally:
+        onboard.close()
