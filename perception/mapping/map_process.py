@@ -17,8 +17,9 @@ The child is ``python -m perception.mapping.map_process``
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import IO, Any
 
 from perception.child_process import ChildProcess, child_streams, read_message, write_message
@@ -47,28 +48,63 @@ class BatchResult:
         The drift correction after the batch.
     frames_mapped, frames_measured : int
         Frames blended into the mosaic and frames measured, after the batch.
-    targets : tuple of TargetHeight or None
-        When asked for: every target after the batch, each with its newest detection only
-        (:func:`latest_only`); None when not asked for.
+    targets : tuple of TrackedTarget or None
+        When asked for: every target after the batch (:func:`tracked_targets`); None when
+        not asked for.
     """
 
     results: tuple[FrameResult | None, ...]
     drift: Drift | None
     frames_mapped: int
     frames_measured: int
-    targets: tuple[TargetHeight, ...] | None = None
+    targets: tuple[TrackedTarget, ...] | None = None
 
 
-def latest_only(targets: Sequence[TargetHeight]) -> tuple[TargetHeight, ...]:
-    """The targets with their newest detection only: what a control loop reads of them
-    (place, height, when last seen), without every frame's measurement."""
-    return tuple(replace(t, detections=t.detections[-1:]) for t in targets)
+@dataclass(frozen=True)
+class TrackedTarget:
+    """What a control loop reads of a target (the pitch loop: where its shadow will be):
+    its height and where it was last seen, none of what grows with every frame a track
+    has (its measurements, the reasons of the frames it missed).
+
+    Attributes
+    ----------
+    target_id : int
+    height_m : float or None
+        As :attr:`TargetHeight.height_m`.
+    last_frame_index : int
+        The frame of its newest detection.
+    last_north_m, last_east_m : float
+        Seabed place of that detection, m (NaN without pose).
+    """
+
+    target_id: int
+    height_m: float | None
+    last_frame_index: int
+    last_north_m: float
+    last_east_m: float
+
+    @property
+    def has_position(self) -> bool:
+        """Whether the newest detection has a seabed place."""
+        return math.isfinite(self.last_north_m) and math.isfinite(self.last_east_m)
+
+
+def tracked_targets(targets: Sequence[TargetHeight]) -> tuple[TrackedTarget, ...]:
+    """The control loop's view of every target that has a detection."""
+    out = []
+    for t in targets:
+        if not t.detections:
+            continue
+        last = t.detections[-1]
+        north, east = (last.north_m, last.east_m) if last.has_position else (math.nan, math.nan)
+        out.append(TrackedTarget(t.target_id, t.height_m, last.frame_index, north, east))
+    return tuple(out)
 
 
 def apply_batch(survey_map: SurveyMap, batch: Sequence[tuple[SonarFrame, bool]], *,
                 with_targets: bool = False) -> BatchResult:
     """Add each ``(frame, mosaic)`` of ``batch`` to ``survey_map`` (in-thread and in the child
-    alike); ``with_targets``: the targets after it too (:func:`latest_only`)."""
+    alike); ``with_targets``: the targets after it too (:func:`tracked_targets`)."""
     results: list[FrameResult | None] = []
     for frame, mosaic in batch:
         try:
@@ -76,7 +112,7 @@ def apply_batch(survey_map: SurveyMap, batch: Sequence[tuple[SonarFrame, bool]],
         except (FrameFormatError, GeometryError):
             results.append(None)
     return BatchResult(tuple(results), survey_map.drift, survey_map.frames_mapped, survey_map.frames_measured,
-                       latest_only(survey_map.targets()) if with_targets else None)
+                       tracked_targets(survey_map.targets()) if with_targets else None)
 
 
 def serve(messages: IO[bytes], replies: IO[bytes]) -> None:

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 from perception.heights.pipeline import FrameResult, TargetHeight
 from perception.mapping.heights_layer import MappedTarget
-from perception.mapping.map_process import BatchResult
+from perception.mapping.map_process import BatchResult, TrackedTarget
 from perception.mapping.mosaic import MosaicConfig
 from perception.mapping.products import MapRaster
 from perception.mapping.registration import RegistrationConfig
@@ -357,10 +357,10 @@ class OnboardPerception:
         """Frames the height pipeline has taken (as of the newest results taken back)."""
         return self._map.frames_measured
 
-    def tracked_targets(self) -> tuple[TargetHeight, ...]:
-        """Every target with its height and its newest detection only, as of the newest
-        results taken back: what the control loop reads (with the map process, without
-        waiting for it)."""
+    def tracked_targets(self) -> tuple[TrackedTarget, ...]:
+        """Every target's height and where it was last seen, as of the newest results
+        taken back: what the control loop reads (with the map process, without waiting
+        for it)."""
         return self._map.tracked_targets()
 
     def targets(self) -> list[TargetHeight]:

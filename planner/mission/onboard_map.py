@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 from perception.heights.pipeline import TargetHeight
 from perception.mapping.heights_layer import MappedTarget
-from perception.mapping.map_process import BatchResult, SurveyMapProcess, apply_batch, latest_only
+from perception.mapping.map_process import BatchResult, SurveyMapProcess, TrackedTarget, apply_batch, tracked_targets
 from perception.mapping.products import MapRaster
 from perception.mapping.survey_map import Drift, SurveyMap
 from perception.sonar_io.frame import SonarFrame
@@ -33,7 +33,7 @@ class OnboardMap:
         self._every_s = tracked_targets_every_s
         self._asked_s = -math.inf
         self._last = BatchResult((), None, 0, 0, ())
-        self._targets: tuple[TargetHeight, ...] = ()
+        self._targets: tuple[TrackedTarget, ...] = ()
         self._ready: list[BatchResult] = []  # taken back by a query, not yet returned by add
 
     def add(self, batch: Sequence[tuple[SonarFrame, bool]]) -> list[BatchResult]:
@@ -86,11 +86,11 @@ class OnboardMap:
         """Frames the height pipeline has taken, as of the newest batch returned."""
         return self._last.frames_measured
 
-    def tracked_targets(self) -> tuple[TargetHeight, ...]:
-        """Every target with its newest detection only (``latest_only``): in thread, now;
+    def tracked_targets(self) -> tuple[TrackedTarget, ...]:
+        """The control loop's view of every target (``TrackedTarget``): in thread, now;
         with the process, as last sent back (never waiting for the child)."""
         if self._worker is None:
-            return latest_only(self._map.targets())
+            return tracked_targets(self._map.targets())
         return self._targets
 
     def targets(self) -> list[TargetHeight]:

@@ -36,7 +36,7 @@ from dataclasses import replace
 
 from perception.geometry.mount import slew_toward
 from perception.geometry.shadow import clamp_height_m, shadow_end_slant_m
-from perception.heights.pipeline import TargetHeight
+from perception.mapping.map_process import TrackedTarget
 from perception.mapping.survey_map import SAME_TARGET_RADIUS_M
 from planner.config import Settings
 from planner.mission.onboard import OnboardPerception
@@ -68,7 +68,7 @@ class ShadowPitchLoop:
                  accel_lead_m_s: float = 0.35, targets_refresh_s: float = 0.5, hold_start_s: float = 0.1):
         self.mount = mount
         self.targets_refresh_s = targets_refresh_s
-        self._targets_cache: tuple[float, list[TargetHeight]] | None = None
+        self._targets_cache: tuple[float, list[TrackedTarget]] | None = None
         self.accel_lead_m_s = accel_lead_m_s
         self.motion_window_s = motion_window_s
         self.memory_frames = memory_frames
@@ -167,13 +167,12 @@ class ShadowPitchLoop:
             nav_age_s = min(max(now_s - nav.time_s, 0.0), 1.0)
             # Tracks with a height first: of two tracks on one spot, the one that knows more stays.
             for t in sorted(self._tracked(onboard, now_s), key=lambda t: t.height_m is None):
-                if t.target_id in seen or not t.detections:
+                if t.target_id in seen:
                     continue
-                last = t.detections[-1]
-                recent = newest - last.frame_index <= self.memory_frames
-                if not (last.has_position and (recent or t.height_m is not None)):
+                recent = newest - t.last_frame_index <= self.memory_frames
+                if not (t.has_position and (recent or t.height_m is not None)):
                     continue
-                remembered = shadow_from_ned(t.target_id, target_ned_m=(last.north_m, last.east_m),
+                remembered = shadow_from_ned(t.target_id, target_ned_m=(t.last_north_m, t.last_east_m),
                                              sonar_ned_m=(nav.north_m, nav.east_m), heading_rad=nav.heading_rad,
                                              height_m=t.height_m)
                 remembered = replace(remembered, along_m=remembered.along_m - speed_m_s * nav_age_s)
@@ -185,7 +184,7 @@ class ShadowPitchLoop:
                 shadows.append(remembered)
         return shadows
 
-    def _tracked(self, onboard: OnboardPerception, now_s: float) -> list[TargetHeight]:
+    def _tracked(self, onboard: OnboardPerception, now_s: float) -> list[TrackedTarget]:
         """Perception's targets, solved again at most every ``targets_refresh_s``: solving
         every track's height is the costliest part of a control step, and the loop only
         reads seabed positions (fixed) and heights (which settle over many frames)."""

@@ -61,6 +61,10 @@ def _places(targets) -> str:
     return repr([(t.target_id, t.north_m, t.east_m, t.height_m, t.frames_seen) for t in targets])
 
 
+def _tracked(targets) -> str:
+    return repr([(t.target_id, t.height_m, t.last_frame_index, t.last_north_m, t.last_east_m) for t in targets])
+
+
 @pytest.mark.slow
 def test_the_map_process_answers_as_in_thread_one_cycle_later(frames) -> None:
     config = OnboardConfig(mosaic_resolution_m=RES_M)
@@ -70,20 +74,24 @@ def test_the_map_process_answers_as_in_thread_one_cycle_later(frames) -> None:
     try:
         batches = [frames[i:i + 2] for i in range(0, len(frames), 2)]
         previous: list = []
-        tracked_before = _places([])
+        tracked_before = _tracked([])
         measured = 0
         for batch in batches:
             now_here = _feed(here, batch)
             now_there = _feed(there, batch)
             # What the process returns now is what the thread returned one call before.
             assert _seen(now_there) == _seen(previous)
-            assert _places(there.tracked_targets()) == tracked_before
+            assert _tracked(there.tracked_targets()) == tracked_before
             assert there.frames_measured == (here.frames_measured - len(now_here))
-            previous, tracked_before = now_here, _places(here.tracked_targets())
+            previous, tracked_before = now_here, _tracked(here.tracked_targets())
             measured += sum(len(r.measurements) for r in now_here)
         assert measured > 0, "the lane sees its targets"
         # Asking for the products takes the last batch back first: then all agree.
         assert _places(there.targets()) == _places(here.targets())
+        # The control loop's view is each target's newest detection.
+        last = {t.target_id: t.detections[-1] for t in here.targets()}
+        assert {t.target_id: (t.last_frame_index, t.last_north_m) for t in here.tracked_targets()} == \
+            {i: (d.frame_index, d.north_m) for i, d in last.items()}
         assert _seen([there.last_frame]) == _seen([here.last_frame])
         assert there.status().frames_used == here.status().frames_used == N_FRAMES
         assert there.status().frames_mapped == here.status().frames_mapped
