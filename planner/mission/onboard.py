@@ -33,6 +33,7 @@ import math
 import queue
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 from perception.heights.pipeline import FrameResult, TargetHeight
 from perception.mapping.heights_layer import MappedTarget
@@ -46,6 +47,8 @@ from perception.navigation.history import NavigationHistory, NavSample
 from perception.sonar_io.frame import SonarFrame
 from planner.mission.onboard_map import OnboardMap
 from vehicle_link.telemetry import Attitude, GlobalPosition, LocalPositionNed, MountStatus, Rangefinder
+
+_T = TypeVar("_T")
 
 
 @dataclass(frozen=True)
@@ -365,18 +368,17 @@ class OnboardPerception:
 
     def targets(self) -> list[TargetHeight]:
         """Every target so far with its height (every frame sent taken back first)."""
-        out = self._map.targets()
-        self._account(self._map.take_ready())
-        return out
+        return self._after_every_frame(self._map.targets())
 
     def mapped_targets(self) -> list[MappedTarget]:
         """Targets placed on the map, fragments folded (:meth:`SurveyMap.mapped_targets`)."""
-        out = self._map.mapped_targets()
-        self._account(self._map.take_ready())
-        return out
+        return self._after_every_frame(self._map.mapped_targets())
 
     def map_raster(self, targets: list[MappedTarget] | None = None) -> MapRaster | None:
         """The map raster with ``targets`` (default: the mapped ones); None before any frame is mapped."""
-        out = self._map.raster(targets)
+        return self._after_every_frame(self._map.raster(targets))
+
+    def _after_every_frame(self, answer: _T) -> _T:
+        """``answer`` of a query, with the batches it took back counted (last frame, frames used)."""
         self._account(self._map.take_ready())
-        return out
+        return answer

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 from perception.heights.pipeline import TargetHeight
 from perception.mapping.heights_layer import MappedTarget
@@ -95,24 +96,22 @@ class OnboardMap:
 
     def targets(self) -> list[TargetHeight]:
         """Every target with its height, after every frame sent."""
-        if self._worker is None:
-            return self._map.targets()
-        self._collect()
-        return self._worker.query("targets")
+        return self._query("targets")
 
     def mapped_targets(self) -> list[MappedTarget]:
         """Targets placed on the map, fragments folded, after every frame sent."""
-        if self._worker is None:
-            return self._map.mapped_targets()
-        self._collect()
-        return self._worker.query("mapped_targets")
+        return self._query("mapped_targets")
 
     def raster(self, targets: list[MappedTarget] | None = None) -> MapRaster | None:
         """The map raster with ``targets`` (default: the mapped ones), after every frame sent."""
+        return self._query("raster", targets)
+
+    def _query(self, name: str, *args: Any) -> Any:
+        """``SurveyMap.<name>(*args)``: here, or in the child once every batch is back."""
         if self._worker is None:
-            return self._map.raster(targets)
+            return getattr(self._map, name)(*args)
         self._collect()
-        return self._worker.query("raster", targets)
+        return self._worker.query(name, *args)
 
     def close(self) -> None:
         """Stop the map process, if any."""
