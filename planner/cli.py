@@ -57,8 +57,10 @@ def _message(exc: BaseException) -> str:
                                                             else type(exc).__name__)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Build the parser with every subcommand found in :mod:`planner.commands`."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """Build the parser with every subcommand found in :mod:`planner.commands`, or with
+    ``command``'s alone when a module of that name exists (its module is the only one
+    imported: the commands' imports take seconds, most of them another command's)."""
     parser = _Parser(
         prog="shadowsurvey",
         description=(
@@ -68,10 +70,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for info in sorted(pkgutil.iter_modules(planner.commands.__path__), key=lambda m: m.name):
-        if info.name.startswith("_"):
-            continue
-        module = importlib.import_module(f"planner.commands.{info.name}")
+    names = sorted(info.name for info in pkgutil.iter_modules(planner.commands.__path__)
+                   if not info.name.startswith("_"))
+    wanted = command.replace("-", "_") if command else None
+    if wanted in names:
+        names = [wanted]
+    for name in names:
+        module = importlib.import_module(f"planner.commands.{name}")
         if hasattr(module, "register"):
             module.register(sub)
     return parser
@@ -79,9 +84,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``shadowsurvey`` console script; returns the exit code."""
-    parser = build_parser()
+    words = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(words[0] if words and not words[0].startswith("-") else None)
     try:
-        args = parser.parse_args(argv)
+        args = parser.parse_args(words)
     except _ParseFailure as exc:
         print(f"{exc.prog}: error: {one_line(exc.message)}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -165,3 +165,21 @@ def test_info_on_converted_npz(sample, tmp_path, capsys):
     assert (info["format"], info["n_frames"], info["n_beams"]) == ("npz", 2, 48)
     assert info["acquisition_window_m"] is None and info["sonar"] == "unknown"
     assert set(info["pose_fields"]) == {"tilt_rad", "heading_rad", "sound_speed_m_s"}
+
+
+def test_a_command_imports_its_own_module_only(sample):
+    """``shadowsurvey info`` does not pay for the dry run's imports (matplotlib, casadi, the
+    simulator): the parser is built from the named command's module alone; the full list
+    is still there for ``--help`` and a mistyped command."""
+    import subprocess
+    import sys
+
+    probe = ("import sys; from planner.cli import main; code = main(['info', sys.argv[1]]); "
+             "heavy = sorted(m for m in ('matplotlib', 'casadi', 'sim_harness', 'planner.mission') "
+             "if m in sys.modules); "
+             "print('HEAVY', heavy, code)")
+    run = subprocess.run([sys.executable, "-c", probe, str(sample)], capture_output=True, text=True, timeout=120)
+    assert run.stdout.strip().splitlines()[-1] == "HEAVY [] 0", run.stdout + run.stderr
+    typo = subprocess.run([sys.executable, "-m", "planner.cli", "infoo"], capture_output=True, text=True, timeout=120)
+    assert typo.returncode == EXIT_BAD_INPUT
+    assert "'sim-vehicle'" in typo.stderr and "'info'" in typo.stderr and len(typo.stderr.strip().splitlines()) == 1
