@@ -194,6 +194,7 @@ class MosaicBuilder:
         altitude_m: float | None = None,
         exclude_mask: np.ndarray | None = None,
         unreliable_mask: np.ndarray | None = None,
+        weight_scale: float = 1.0,
     ) -> FrameAdded:
         """Project ``frame``, register it against the mosaic if enabled, and blend it in.
 
@@ -208,7 +209,12 @@ class MosaicBuilder:
             Polar samples left out of the blend (shadows).
         unreliable_mask : ndarray of bool, shape (n_samples, n_beams), optional
             Polar samples blended but not registered (raised targets' echoes).
+        weight_scale : float, optional
+            Factor on the frame's weights: the number of frames it stands for when only
+            some are blended (:mod:`perception.mapping.look_spacing`).
         """
+        if not (math.isfinite(weight_scale) and weight_scale > 0):
+            raise ValueError(f"weight_scale must be finite and > 0, got {weight_scale!r}")
         if placement is None:
             placement = placement_from_frame(frame, altitude_m=altitude_m)
         if self._last_position is not None:
@@ -219,7 +225,7 @@ class MosaicBuilder:
         d_e = self.drift.east_m if self.drift else 0.0
         cfg = self.mosaic.config
         masks = {"exclude_mask": exclude_mask, "unreliable_mask": unreliable_mask}
-        projected = project_frame(frame, placement.shifted(d_n, d_e), config=cfg, **masks)
+        projected = _scaled(project_frame(frame, placement.shifted(d_n, d_e), config=cfg, **masks), weight_scale)
         if projected is None:
             return FrameAdded(False, d_n, d_e, None)
         result: RegistrationResult | None = None
@@ -231,7 +237,8 @@ class MosaicBuilder:
                                        travelled_m=self.travelled_m)
             if result.accepted:
                 d_n, d_e = self.drift.north_m, self.drift.east_m
-                projected = project_frame(frame, placement.shifted(d_n, d_e), config=cfg, **masks)
+                projected = _scaled(project_frame(frame, placement.shifted(d_n, d_e), config=cfg, **masks),
+                                    weight_scale)
                 if projected is None:
                     return FrameAdded(False, d_n, d_e, result)
         self.mosaic.add(projected)
@@ -241,6 +248,12 @@ class MosaicBuilder:
                 old = self._pending.popleft()
                 self._reference.add(replace(old, weight=np.where(old.reliable, old.weight, np.float32(0))))
         return FrameAdded(True, d_n, d_e, result)
+
+
+def _scaled(projected: ProjectedFrame | None, factor: float) -> ProjectedFrame | None:
+    if projected is None or factor == 1.0:
+        return projected
+    return replace(projected, weight=projected.weight * np.float32(factor))
 
 
 def _stack(newest: ProjectedFrame, older: list[ProjectedFrame]) -> ProjectedFrame:

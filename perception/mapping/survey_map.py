@@ -29,6 +29,7 @@ from perception.heights.config import HeightsConfig
 from perception.heights.pipeline import FrameResult, HeightPipeline, TargetHeight
 from perception.mapping.builder import MosaicBuilder, masks_from_shadows
 from perception.mapping.heights_layer import MappedTarget
+from perception.mapping.look_spacing import LookSpacing
 from perception.mapping.mosaic import MosaicConfig, TiledMosaic
 from perception.mapping.products import MapRaster, map_raster
 from perception.mapping.registration import RegistrationConfig
@@ -72,21 +73,33 @@ class SurveyMap:
     mosaic : MosaicConfig, optional
     registration : RegistrationConfig or None
         Drift correction by registering frames on the mosaic; None trusts the navigation.
+    mosaic_looks : int or None
+        Blend only enough frames for about this many per seabed cell
+        (:mod:`perception.mapping.look_spacing`); None (default) blends every frame.
     """
 
     def __init__(self, *, heights: HeightsConfig | None = None, mosaic: MosaicConfig | None = None,
-                 registration: RegistrationConfig | None = None):
+                 registration: RegistrationConfig | None = None, mosaic_looks: int | None = None):
         self._heights = HeightPipeline(heights or HeightsConfig(shared_altitude=False))
         self._builder = MosaicBuilder(mosaic or MosaicConfig(), registration)
+        self._spacing = LookSpacing(mosaic_looks) if mosaic_looks is not None else None
 
     # ------------------------------------------------------------------ verbs
     def add_frame(self, frame: SonarFrame, *, mosaic: bool = True) -> FrameResult:
-        """Measure and track ``frame``'s shadows; blend it into the mosaic when ``mosaic``.
+        """Measure and track ``frame``'s shadows; blend it into the mosaic when ``mosaic``
+        (and, with ``mosaic_looks``, when its footprint has moved on enough).
 
         Raises what the height pipeline and the mosaic raise for a frame they cannot use
         (:class:`~perception.errors.FrameFormatError`, :class:`~perception.errors.GeometryError`).
         """
         result = self._heights.add_frame(self._drift_corrected(frame), altitude_m=frame.altitude_m)
+        stands_for = 1
+        if self._spacing is not None:
+            if mosaic:
+                stands_for = self._spacing.offer(frame, altitude_m=frame.altitude_m)
+                mosaic = stands_for > 0
+            else:
+                self._spacing.interrupt()
         if mosaic:
             shadow = target = None
             if result.measurements:
@@ -94,7 +107,8 @@ class SurveyMap:
                 found = masks_from_shadows(result.measurements, range_m=frame.range_m, n_beams=frame.n_beams,
                                            beam_azimuth_rad=frame.beam_azimuth_rad, image=frame.image)
                 shadow, target = found.shadow, found.target
-            self._builder.add_frame(frame, altitude_m=frame.altitude_m, exclude_mask=shadow, unreliable_mask=target)
+            self._builder.add_frame(frame, altitude_m=frame.altitude_m, exclude_mask=shadow, unreliable_mask=target,
+                                    weight_scale=float(stands_for))
         return result
 
     def _drift_corrected(self, frame: SonarFrame) -> SonarFrame:

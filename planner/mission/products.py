@@ -138,6 +138,7 @@ def summary_document(result: DiveResult, onboard: OnboardPerception, *, wall_s: 
         "ekf_origin_offset_m": list(result.origin_offset_m),
         "frames_processed": status.frames_used,
         "frames_skipped": status.frames_skipped,
+        "frames_mapped": status.frames_mapped,
         "n_targets": len(mapped),
         "n_targets_with_height": sum(1 for t in mapped if math.isfinite(t.height_m)),
         "n_tracks_raw": len(onboard.targets()),

@@ -115,9 +115,15 @@ class ShadowPitchLoop:
         while len(self._commands) > 2 and self._commands[1][0] < time_s - self._history_s:
             self._commands.popleft()
 
-    def _shadows(self, onboard: OnboardPerception, now_s: float, speed_m_s: float) -> list[TrackedShadow]:
+    def _shadows(self, onboard: OnboardPerception, now_s: float, speed_m_s: float,
+                 config: PitchLoopConfig | None = None) -> list[TrackedShadow]:
         """The targets ahead in the level frame at ``now_s`` (the vehicle has moved on
-        ``speed_m_s`` times the age of the frame or the navigation sample they come from)."""
+        ``speed_m_s`` times the age of the frame or the navigation sample they come from).
+
+        With the loop's ``config``, remembered tracks that no step of its horizon could
+        serve are left out before they are placed (:func:`beyond_reach`): a field dive
+        remembers hundreds, and placing each every step made the step's cost grow with the
+        dive."""
         shadows: list[TrackedShadow] = []
         seen: set[int] = set()
         result = onboard.last_frame
@@ -176,6 +182,8 @@ class ShadowPitchLoop:
                                              sonar_ned_m=(nav.north_m, nav.east_m), heading_rad=nav.heading_rad,
                                              height_m=t.height_m)
                 remembered = replace(remembered, along_m=remembered.along_m - speed_m_s * nav_age_s)
+                if config is not None and beyond_reach(remembered, config, speed_m_s=speed_m_s):
+                    continue
                 # A remembered track where a measured or another remembered shadow already is
                 # is a second track of that target (the tracker split it): it must not count twice.
                 if any(math.hypot(remembered.along_m - s.along_m, remembered.cross_m - s.cross_m)
@@ -243,12 +251,35 @@ class ShadowPitchLoop:
         pitch_age_s = min(max(now_s - nav.time_s, 0.0), 0.5)
         state = PitchState(altitude_m=altitude, vehicle_pitch_rad=pitch + pitch_rate * pitch_age_s,
                            pitch_rate_rad_s=pitch_rate, speed_m_s=speed, current_tilt_rad=self.mount.clip(current))
-        command = self._loops[pass_.name].step(state, self._shadows(onboard, now_s, speed))
+        loop = self._loops[pass_.name]
+        command = loop.step(state, self._shadows(onboard, now_s, speed, loop.config))
         self.last_command = command
         self.record_command(now_s, command.tilt_rad)
         self.steps += 1
         margins = [min(m.far_margin_rad, m.near_margin_rad) for m in command.margins]
         return command.tilt_rad, min(margins) if margins else math.nan
+
+
+#: How far past the horizon's reach a remembered track must lie to be left out, m: wide
+#: enough that no chain of tracks within ``SAME_TARGET_RADIUS_M`` of each other (the
+#: tracker's split pieces, one suppressing the next) reaches from a left-out track to one
+#: the loop could serve.
+REACH_MARGIN_M = 1.0
+
+
+def beyond_reach(shadow: TrackedShadow, config: PitchLoopConfig, *, speed_m_s: float) -> bool:
+    """Whether no step of the horizon can serve ``shadow`` (level frame, now): behind the
+    sonar (the vehicle only moves on, so it stays behind: ``BEHIND`` at every step), or so far
+    that even at the horizon's end its top, seen from the seabed distance alone (the slant
+    range is longer), lies past the window's end and the lead band (``BEYOND_WINDOW_END``
+    at every step); both with :data:`REACH_MARGIN_M` to spare. Never for a negative speed."""
+    if speed_m_s < 0.0:
+        return False
+    if shadow.along_m < -REACH_MARGIN_M:
+        return True
+    travel_m = speed_m_s * config.horizon_steps * config.dt_s
+    return math.hypot(shadow.along_m, shadow.cross_m) - travel_m > config.window_m[1] + config.zone_lead_m \
+        + REACH_MARGIN_M
 
 
 def loop_config(settings: Settings, *, nominal_tilt_rad: float, search_weight_factor: float = 0.1,

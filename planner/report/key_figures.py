@@ -127,6 +127,9 @@ def key_figures(run: RunData, score: HeightScore | None) -> list[str]:
     add("frames_processed", "sonar frames measured", "count", "frames the on-board height pipeline took")
     add("frames_skipped", "sonar frames skipped", "count",
         "frames without navigation or altitude at their timestamp yet, or unusable")
+    add("frames_mapped", "sonar frames blended into the mosaic", "count",
+        "frames on the lanes whose footprint had moved on enough (about 40 per seabed cell; each stands for the "
+        "frames since the last)")
     add("waypoints_reached", "waypoints reached", "count", "plan waypoints the vehicle reached")
     nav = run.nav
     if nav is not None and nav.n_rows:
@@ -143,7 +146,8 @@ def key_figures(run: RunData, score: HeightScore | None) -> list[str]:
     known = SHOWN_ELSEWHERE | {"sim_duration_s", "wall_duration_s", "min_clearance_m", "min_altitude_estimated_m",
                                "min_altitude_allowed_m", "depth_commands_clamped", "depth_limit_violations",
                                "depth_limit_violations_estimated", "shadow_in_fov_ratio", "n_targets",
-                               "n_targets_with_height", "frames_processed", "frames_skipped", "waypoints_reached",
+                               "n_targets_with_height", "frames_processed", "frames_skipped", "frames_mapped",
+                               "waypoints_reached",
                                "safe_action", "coverage_by_truth"}
     if "safe_action" in s:
         rows.append(["safe action taken", fmt(s["safe_action"]), "what the executor did at the end or on an abort: "

@@ -835,3 +835,33 @@ def test_near_band_gives_way_to_the_watch_on_the_window_end() -> None:
     watching = _settle(PitchLoop(dataclasses.replace(base, search_weight_factor=0.1), LIMITS), state, [near],
                        steps=15)
     assert watching.tilt_rad <= far_end_limit + 1e-3
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    targets=st.lists(st.tuples(st.floats(-20.0, 30.0), st.floats(-15.0, 15.0),
+                               st.one_of(st.none(), st.floats(0.0, 0.4))), min_size=1, max_size=12),
+    altitude=st.floats(0.4, 3.0), speed=st.floats(0.0, 1.0), tilt_deg=st.floats(0.0, 60.0),
+    window_end=st.floats(2.0, 15.0),
+)
+def test_tracks_beyond_reach_are_never_served(targets, altitude, speed, tilt_deg, window_end):
+    """The tracks the pitch loop leaves out before placing them (behind the sonar, or past the
+    window's end for the whole horizon) are ones the selection would have dropped: the served
+    targets are the same with and without them."""
+    from planner.pitch.control import beyond_reach
+    from planner.pitch.selection import select_shadows
+
+    cfg = _config(window_m=(0.5, window_end))
+    state = PitchState(altitude_m=altitude, vehicle_pitch_rad=0.0, speed_m_s=speed,
+                       current_tilt_rad=math.radians(tilt_deg))
+    shadows = [TrackedShadow(i, a, c, h, 0.0, False) for i, (a, c, h) in enumerate(targets)]
+    kept = [s for s in shadows if not beyond_reach(s, cfg, speed_m_s=speed)]
+    try:
+        served_all = select_shadows(state, shadows, cfg, LIMITS, 0.0)[0]
+    except GeometryError:
+        return
+    served_kept = select_shadows(state, kept, cfg, LIMITS, 0.0)[0]
+    assert [shadows[i].target_id for i, _ in served_all] == [kept[i].target_id for i, _ in served_kept]
+    far = TrackedShadow("far", window_end + 2.0 + speed * cfg.horizon_steps * cfg.dt_s, 0.0, None, 0.0, False)
+    behind = TrackedShadow("behind", -1.5, 0.0, None, 0.0, False)
+    assert beyond_reach(far, cfg, speed_m_s=speed) and beyond_reach(behind, cfg, speed_m_s=speed)
