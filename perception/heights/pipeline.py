@@ -164,7 +164,7 @@ class HeightPipeline:
         solved = []
         for track in tracks:
             position = track.position_m()[:2]
-            key = self._solve_key(track.detections, shared, position)
+            key = self._solve_key(track.detections, shared, position, lacks_altitude=track.lacks_altitude)
             memo = self._solved.get(track.track_id)
             if memo is not None and memo[0] == key:
                 solved.append(memo[2])
@@ -179,12 +179,13 @@ class HeightPipeline:
         return list(solved)
 
     def _solve_key(self, detections: list, shared: tuple[float, float] | None,
-                   position: tuple[float, float]) -> tuple[object, ...]:
+                   position: tuple[float, float], *, lacks_altitude: bool) -> tuple[object, ...]:
         """What :meth:`TargetSolver.solve`'s answer for a track depends on: its detections
         (appended in frame order, so their count and ends name them), its position, the
-        shared reference altitude (only when a frame lacks an absolute altitude), and the
-        frame count in a short recording (its per-frame reasons, and "of N frames")."""
-        needs_shared = not all(math.isfinite(d.altitude_m) for d in detections)
+        shared reference altitude (only when a frame lacks an absolute altitude:
+        ``lacks_altitude``, :attr:`Track.lacks_altitude`), and the frame count in a short
+        recording (its per-frame reasons, and "of N frames")."""
+        needs_shared = lacks_altitude
         counts_frames = self._n_frames <= EVERY_FRAME_UP_TO
         ends = (detections[0].frame_index, detections[-1].frame_index) if detections else ()
         return (len(detections), ends, id(detections[-1]) if detections else 0, tuple(position),

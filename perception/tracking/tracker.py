@@ -71,6 +71,10 @@ class Track:
     detections: list[Detection] = field(default_factory=list)
     default_gate_m: float = TrackingConfig.position_gate_m
     _sums: list[float] = field(default_factory=lambda: [0.0] * 5, init=False, repr=False)
+    #: Whether a detection lacks its frame's absolute altitude (kept as they are added: reading
+    #: every detection of every track each time the targets are solved grew with the square
+    #: of a dive's length).
+    lacks_altitude: bool = field(default=False, init=False)
 
     def __post_init__(self) -> None:
         self.reset(self.detections)
@@ -79,12 +83,14 @@ class Track:
         """Replace the detections (any order) and recompute the position sums."""
         self.detections = []
         self._sums = [0.0] * 5
+        self.lacks_altitude = False
         for det in sorted(detections, key=lambda d: d.frame_index):
             self.add(det)
 
     def add(self, det: Detection) -> None:
         """Append one detection (frames arrive in order) and update the position sums."""
         self.detections.append(det)
+        self.lacks_altitude = self.lacks_altitude or not math.isfinite(det.altitude_m)
         if len(self.detections) > 1 and det.frame_index < self.detections[-2].frame_index:
             self.detections.sort(key=lambda d: d.frame_index)
         if det.is_placed:

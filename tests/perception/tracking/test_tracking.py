@@ -104,3 +104,21 @@ def test_gates_and_one_detection_per_frame_per_target() -> None:
 def test_tracking_config_is_validated() -> None:
     with pytest.raises(ValueError, match="azimuth_gate_rad"):
         TrackingConfig(azimuth_gate_rad=0.0)
+
+
+def test_a_track_knows_whether_a_detection_lacks_its_altitude() -> None:
+    """``Track.lacks_altitude`` follows the detections as they are added, sorted in out of
+    order and replaced (a merge), without reading them all again."""
+    from perception.tracking.tracker import Track
+
+    def det(frame: int, altitude_m: float) -> Detection:
+        return Detection(frame, _measurement(0.0, 1.5, 1.6), altitude_m=altitude_m, delta_h_m=0.0)
+
+    track = Track(1, [det(0, 1.0), det(1, 1.1)])
+    assert not track.lacks_altitude
+    track.add(det(3, 1.2))
+    assert not track.lacks_altitude
+    track.add(det(2, math.nan))  # out of order: sorted into the middle
+    assert track.lacks_altitude and [d.frame_index for d in track.detections] == [0, 1, 2, 3]
+    track.reset([d for d in track.detections if math.isfinite(d.altitude_m)])
+    assert not track.lacks_altitude
