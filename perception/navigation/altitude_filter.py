@@ -381,7 +381,7 @@ class AltitudeFilter:
     def _smooth(self) -> WindowSmoother:
         if self._smoothed is None:
             self._smoothed = WindowSmoother(
-                list(self._steps),
+                self._steps,  # not copied: every change of the steps drops the smoother
                 model=self._model,
                 current_accel_psd=self._accel_psd,
             )

@@ -15,6 +15,8 @@ of everything later, so ``Cov(x(t1), x(t2)) = G(t1 -> n1) G(n1 -> n2) ... P_s(t2
 
 from __future__ import annotations
 
+import bisect
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -122,6 +124,25 @@ class FilterStep:
     q_extra: FloatArray | None = None  # reset noise added at this step, (n, n)
 
 
+def _time_of(step: FilterStep) -> float:
+    return step.time_s
+
+
+class _Times:
+    """The steps' times, read through the steps (no copy: the filter's own deque of steps
+    is handed over as it is, and copying 120 s of steps at every filter step was most of
+    the smoother's cost)."""
+
+    def __init__(self, steps: Sequence[FilterStep]):
+        self._steps = steps
+
+    def __getitem__(self, k: int) -> float:
+        return self._steps[k].time_s
+
+    def __len__(self) -> int:
+        return len(self._steps)
+
+
 class WindowSmoother:
     """RTS smoother over a list of :class:`FilterStep`, run backwards on demand.
 
@@ -131,23 +152,27 @@ class WindowSmoother:
 
     Parameters
     ----------
-    steps : list of FilterStep
-        In time order (equal times allowed: a reset step after a measurement step).
+    steps : sequence of FilterStep
+        In time order (equal times allowed: a reset step after a measurement step); not
+        copied, so not to be changed while the smoother is in use.
     model : VerticalModel
         The filter's process model.
     current_accel_psd : float
         The acceleration PSD the filter would use past its last step.
     """
 
-    def __init__(self, steps: list[FilterStep], *, model: VerticalModel, current_accel_psd: float):
+    def __init__(self, steps: Sequence[FilterStep], *, model: VerticalModel, current_accel_psd: float):
         self.steps = steps
-        self.times = np.array([s.time_s for s in steps])
+        self.times = _Times(steps)
         self.model = model
         self._current_psd = current_accel_psd
         n = len(steps)
         self._x: list[FloatArray] = [steps[-1].x] * n
         self._p: list[FloatArray] = [steps[-1].p] * n
         self._lowest = n - 1
+        #: Answers of :meth:`node` by time (a control cycle asks the same time for the
+        #: altitude, the depth and the frame's stamp); valid as long as the smoother.
+        self._nodes: dict[float, tuple[int, FloatArray, FloatArray]] = {}
 
     # ------------------------------------------------------------------ stored steps
     def _extend(self, k: int) -> None:
@@ -199,8 +224,18 @@ class WindowSmoother:
 
     def node(self, t: float) -> tuple[int, FloatArray, FloatArray]:
         """Smoothed mean (n,) and covariance (n, n) at ``t``, and the index of the last
-        step at or before ``t``. The caller keeps ``t`` inside the window."""
-        k = max(int(np.searchsorted(self.times, t + SAME_TIME_S, side="right")) - 1, 0)
+        step at or before ``t``. The caller keeps ``t`` inside the window (and does not
+        modify the arrays: a second question at ``t`` gets the same ones)."""
+        known = self._nodes.get(t)
+        if known is not None:
+            return known
+        answer = self._node(t)
+        if len(self._nodes) < 64:
+            self._nodes[t] = answer
+        return answer
+
+    def _node(self, t: float) -> tuple[int, FloatArray, FloatArray]:
+        k = max(bisect.bisect_right(self.steps, t + SAME_TIME_S, key=_time_of) - 1, 0)
         dt = t - float(self.times[k])
         if dt <= SAME_TIME_S:
             return k, self.x(k), self.p(k)
