@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from planner.config import Settings
-from planner.dryrun.shadow_view import shadow_visible_at_tilts, visible_tilts
+from planner.dryrun.shadow_view import holdable_tilts, shadow_visible_at_tilts, visible_tilts
 from planner.mission.altitude_watch import AltitudeLimits, AltitudeWatch, replay
 from planner.mission.executor_config import DiveResult
 from planner.mission.run_folder import RunFolder
@@ -126,16 +126,10 @@ def score_against_truth(run: RunFolder, sim: VehicleSimulator, settings: Setting
                     elevation_aperture_rad=aperture)
                 counts["model_checked"] += 1
                 counts["model_agrees"] += int(bool(here[0]) == bool(tt.whole_shadow_in_band))
-                narrow = aperture - 2.0 * FOV_EDGE_MARGIN_RAD
-                far_end = np.full(beams_az.shape, window_end_m)
-                holdable = shadow_visible_at_tilts(
+                holdable = holdable_tilts(
                     beams_az, np.asarray(tt.shadow_start_m), np.asarray(tt.shadow_end_m), altitude_m=altitude,
-                    pitch_rad=pose.pitch_rad, roll_rad=pose.roll_rad, tilt_rad=tilt_grid,
-                    elevation_aperture_rad=narrow,
-                ) & shadow_visible_at_tilts(
-                    beams_az, far_end, far_end, altitude_m=altitude, pitch_rad=pose.pitch_rad,
-                    roll_rad=pose.roll_rad, tilt_rad=tilt_grid, elevation_aperture_rad=narrow,
-                )
+                    pitch_rad=pose.pitch_rad, roll_rad=pose.roll_rad, tilt_grid=tilt_grid,
+                    aperture_rad=aperture - 2.0 * FOV_EDGE_MARGIN_RAD, window_end_m=window_end_m)
             in_range = {"zone": base and bool(holdable.any()), "2alt": base and bool(visible.any() or in_fov)}
             settled = {}
             for z in ("zone", "2alt"):

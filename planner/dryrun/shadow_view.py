@@ -67,6 +67,41 @@ def shadow_visible_at_tilts(
     return ok
 
 
+def tilts_near(tilt_grid: np.ndarray, start_slant_m: np.ndarray, end_slant_m: np.ndarray, *, altitude_m: float,
+               pitch_rad: float, roll_rad: float, aperture_rad: float) -> np.ndarray:
+    """The tilts of ``tilt_grid`` (rad) that can show any of the shadow (slant ranges from
+    its start to its end): those whose beam axis lies within the half aperture of the
+    shadow's depressions, widened by the attitude and 3 deg for the fan's curvature; a
+    tilt outside shows none of it."""
+    near_dep = math.asin(min(1.0, altitude_m / max(float(np.min(start_slant_m)), altitude_m)))
+    far_dep = math.asin(min(1.0, altitude_m / max(float(np.max(end_slant_m)), altitude_m)))
+    slack = aperture_rad / 2 + abs(pitch_rad) + abs(roll_rad) + math.radians(3.0)
+    return (tilt_grid >= near_dep - slack) & (tilt_grid <= far_dep + slack)
+
+
+def holdable_tilts(beam_azimuth_rad: np.ndarray, start_slant_m: np.ndarray, end_slant_m: np.ndarray, *,
+                   altitude_m: float, pitch_rad: float, roll_rad: float, tilt_grid: np.ndarray,
+                   aperture_rad: float, window_end_m: float) -> np.ndarray:
+    """For each tilt of ``tilt_grid``: do the shadow and the seabed at the window's end
+    (``window_end_m`` on the shadow's beams) both lie inside ``aperture_rad``? Computed
+    only at the tilts that can show the shadow (:func:`tilts_near`)."""
+    near = tilts_near(tilt_grid, start_slant_m, end_slant_m, altitude_m=altitude_m, pitch_rad=pitch_rad,
+                      roll_rad=roll_rad, aperture_rad=aperture_rad)
+    out = np.zeros(tilt_grid.shape, dtype=bool)
+    if not near.any():
+        return out
+    far_end = np.full(np.shape(beam_azimuth_rad), window_end_m)
+    tilts = tilt_grid[near]
+    out[near] = shadow_visible_at_tilts(
+        beam_azimuth_rad, start_slant_m, end_slant_m, altitude_m=altitude_m, pitch_rad=pitch_rad,
+        roll_rad=roll_rad, tilt_rad=tilts, elevation_aperture_rad=aperture_rad,
+    ) & shadow_visible_at_tilts(
+        beam_azimuth_rad, far_end, far_end, altitude_m=altitude_m, pitch_rad=pitch_rad, roll_rad=roll_rad,
+        tilt_rad=tilts, elevation_aperture_rad=aperture_rad,
+    )
+    return out
+
+
 def visible_tilts(tt: Any, azimuths: np.ndarray, tilt_grid: np.ndarray, *, altitude_m: float, pitch_rad: float,
                    roll_rad: float, aperture_rad: float) -> np.ndarray:
     """For each tilt of ``tilt_grid`` (rad), does it show the truth target ``tt``'s whole shadow?
@@ -74,10 +109,8 @@ def visible_tilts(tt: Any, azimuths: np.ndarray, tilt_grid: np.ndarray, *, altit
     Only tilts whose beam axis is within the aperture (and a few degrees for the attitude
     and the fan's curvature) of the shadow can show it; the others are not computed.
     """
-    near_dep = math.asin(min(1.0, altitude_m / max(float(np.min(tt.shadow_start_m)), altitude_m)))
-    far_dep = math.asin(min(1.0, altitude_m / max(float(np.max(tt.shadow_end_m)), altitude_m)))
-    slack = aperture_rad / 2 + abs(pitch_rad) + abs(roll_rad) + math.radians(3.0)
-    near = (tilt_grid >= near_dep - slack) & (tilt_grid <= far_dep + slack)
+    near = tilts_near(tilt_grid, np.asarray(tt.shadow_start_m), np.asarray(tt.shadow_end_m), altitude_m=altitude_m,
+                      pitch_rad=pitch_rad, roll_rad=roll_rad, aperture_rad=aperture_rad)
     visible = np.zeros(tilt_grid.shape, dtype=bool)
     visible[near] = shadow_visible_at_tilts(
         azimuths[np.asarray(tt.beams, dtype=int)], np.asarray(tt.shadow_start_m), np.asarray(tt.shadow_end_m),

@@ -622,6 +622,29 @@ def test_truth_visibility_over_tilts_matches_the_band(alt: float, near: float, l
     assert np.array_equal(vis[~edge], expect[~edge])
 
 
+@settings(max_examples=60, deadline=None)
+@given(alt=st.floats(0.4, 3.0), near=st.floats(0.5, 6.0), length=st.floats(0.02, 2.0),
+       pitch=st.floats(-0.08, 0.08), roll=st.floats(-0.08, 0.08), az0=st.floats(-0.25, 0.2),
+       n_beams=st.integers(1, 12), window_end=st.floats(2.0, 9.0))
+def test_holdable_tilts_are_those_of_the_whole_grid(alt, near, length, pitch, roll, az0, n_beams, window_end):
+    """The scorer computes the holdable tilts only near the shadow (:func:`tilts_near`); over
+    the whole mount range the answer is the same: no tilt it skips shows the shadow."""
+    from planner.dryrun.shadow_view import holdable_tilts
+
+    beams = az0 + np.arange(n_beams) * math.radians(0.25)
+    start = np.full(n_beams, math.hypot(near, alt))
+    end = np.full(n_beams, math.hypot(near + length, alt))
+    grid = np.arange(0.0, math.radians(60.0) + 1e-9, math.radians(0.1))
+    narrow = APERTURE - 2.0 * math.radians(2.25)
+    full = shadow_visible_at_tilts(beams, start, end, altitude_m=alt, pitch_rad=pitch, roll_rad=roll, tilt_rad=grid,
+                                   elevation_aperture_rad=narrow) & shadow_visible_at_tilts(
+        beams, np.full(n_beams, window_end), np.full(n_beams, window_end), altitude_m=alt, pitch_rad=pitch,
+        roll_rad=roll, tilt_rad=grid, elevation_aperture_rad=narrow)
+    got = holdable_tilts(beams, start, end, altitude_m=alt, pitch_rad=pitch, roll_rad=roll, tilt_grid=grid,
+                         aperture_rad=narrow, window_end_m=window_end)
+    assert np.array_equal(got, full)
+
+
 # --------------------------------------------------------------------------- tracking zone
 
 
