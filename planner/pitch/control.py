@@ -44,6 +44,7 @@ from planner.pitch.baseline import nominal_tilt_for
 from planner.pitch.config import MountLimits, PitchLoopConfig
 from planner.pitch.measurements import shadow_from_measurement, shadow_from_ned
 from planner.pitch.qp import PitchLoop
+from planner.pitch.reach import beyond_reach
 from planner.pitch.types import PitchCommand, PitchState, TrackedShadow
 from planner.survey.plan import SurveyPass, SurveyPlan
 
@@ -258,28 +259,6 @@ class ShadowPitchLoop:
         self.steps += 1
         margins = [min(m.far_margin_rad, m.near_margin_rad) for m in command.margins]
         return command.tilt_rad, min(margins) if margins else math.nan
-
-
-#: How far past the horizon's reach a remembered track must lie to be left out, m: wide
-#: enough that no chain of tracks within ``SAME_TARGET_RADIUS_M`` of each other (the
-#: tracker's split pieces, one suppressing the next) reaches from a left-out track to one
-#: the loop could serve.
-REACH_MARGIN_M = 1.0
-
-
-def beyond_reach(shadow: TrackedShadow, config: PitchLoopConfig, *, speed_m_s: float) -> bool:
-    """Whether no step of the horizon can serve ``shadow`` (level frame, now): behind the
-    sonar (the vehicle only moves on, so it stays behind: ``BEHIND`` at every step), or so far
-    that even at the horizon's end its top, seen from the seabed distance alone (the slant
-    range is longer), lies past the window's end and the lead band (``BEYOND_WINDOW_END``
-    at every step); both with :data:`REACH_MARGIN_M` to spare. Never for a negative speed."""
-    if speed_m_s < 0.0:
-        return False
-    if shadow.along_m < -REACH_MARGIN_M:
-        return True
-    travel_m = speed_m_s * config.horizon_steps * config.dt_s
-    return math.hypot(shadow.along_m, shadow.cross_m) - travel_m > config.window_m[1] + config.zone_lead_m \
-        + REACH_MARGIN_M
 
 
 def loop_config(settings: Settings, *, nominal_tilt_rad: float, search_weight_factor: float = 0.1,

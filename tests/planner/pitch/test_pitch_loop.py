@@ -871,7 +871,7 @@ def test_tracks_beyond_reach_are_never_served(targets, altitude, speed, tilt_deg
     """The tracks the pitch loop leaves out before placing them (behind the sonar, or past the
     window's end for the whole horizon) are ones the selection would have dropped: the served
     targets are the same with and without them."""
-    from planner.pitch.control import beyond_reach
+    from planner.pitch.reach import beyond_reach
     from planner.pitch.selection import select_shadows
 
     cfg = _config(window_m=(0.5, window_end))
