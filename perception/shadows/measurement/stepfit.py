@@ -185,8 +185,8 @@ def _vertex_2d(cube: FloatArray, rows: NDArray[np.intp], j: NDArray[np.intp],
     n_j, n_k = cube.shape[1], cube.shape[2]
     step = np.arange(-1, 2)
     # The 3 x 3 scores about each best at once (indices clamped at the bank's edges).
-    jj = np.clip(j[:, None] + step[None, :], 0, n_j - 1)
-    kk = np.clip(k[:, None] + step[None, :], 0, n_k - 1)
+    jj = np.minimum(np.maximum(j[:, None] + step[None, :], 0), n_j - 1)  # np.clip: several times slower
+    kk = np.minimum(np.maximum(k[:, None] + step[None, :], 0), n_k - 1)
     c = cube[rows[:, None, None], jj[:, :, None], kk[:, None, :]]
     f0 = c[:, 1, 1]
     gj = 0.5 * (c[:, 2, 1] - c[:, 0, 1])
@@ -205,8 +205,8 @@ def _vertex_2d(cube: FloatArray, rows: NDArray[np.intp], j: NDArray[np.intp],
     # Alone where the other direction is at the bank's edge.
     du_alone = np.where(inner_j & (hjj < 0), -gj / np.where(hjj < 0, hjj, -1.0), 0.0)
     dv_alone = np.where(inner_k & (hkk < 0), -gk / np.where(hkk < 0, hkk, -1.0), 0.0)
-    du = np.clip(np.where(joint, du_joint, du_alone), -1.0, 1.0)
-    dv = np.clip(np.where(joint, dv_joint, dv_alone), -1.0, 1.0)
+    du = np.minimum(np.maximum(np.where(joint, du_joint, du_alone), -1.0), 1.0)
+    dv = np.minimum(np.maximum(np.where(joint, dv_joint, dv_alone), -1.0), 1.0)
     return du, dv
 
 
@@ -256,7 +256,7 @@ def fit_steps(
     shift = np.rint(coarse.offsets[found.best]).astype(np.intp)
     cols = np.arange(m)[None, :] + shift[:, None]
     valid = (cols >= 0) & (cols < m)
-    cols = np.clip(cols, 0, m - 1)
+    cols = np.minimum(np.maximum(cols, 0), m - 1)
     wt = _gamma_weights(w, found.a, found.b, coarse.t[:, found.best].T)
     y_s = np.where(valid, y[rows[:, None], cols], 0.0)
     wt_s = np.where(valid, wt[rows[:, None], cols], 0.0)
@@ -299,10 +299,10 @@ def fit_steps(
         h11 = np.add.reduce(wj1 * j1, axis=1) * (1.0 + DAMPING)
         det = h00 * h11 - h01 * h01
         det = np.where(det > 0, det, np.inf)
-        x0 = np.clip(x0 + np.clip((h11 * g0 - h01 * g1) / det, -MAX_EDGE_STEP_SAMPLES, MAX_EDGE_STEP_SAMPLES),
-                     first, last)
-        log_s = np.clip(log_s + np.clip((h00 * g1 - h01 * g0) / det, -MAX_LOG_BLUR_STEP, MAX_LOG_BLUR_STEP),
-                        math.log(MIN_BLUR_SAMPLES), math.log(widest))
+        step_x = np.minimum(np.maximum((h11 * g0 - h01 * g1) / det, -MAX_EDGE_STEP_SAMPLES), MAX_EDGE_STEP_SAMPLES)
+        x0 = np.minimum(np.maximum(x0 + step_x, first), last)
+        step_s = np.minimum(np.maximum((h00 * g1 - h01 * g0) / det, -MAX_LOG_BLUR_STEP), MAX_LOG_BLUR_STEP)
+        log_s = np.minimum(np.maximum(log_s + step_s, math.log(MIN_BLUR_SAMPLES)), math.log(widest))
     blur = np.exp(log_s)
     # The edge's 1-sigma from the weighted residuals and the Jacobian of all four parameters
     # (levels, edge, blur): the levels' errors move the fitted edge too.
