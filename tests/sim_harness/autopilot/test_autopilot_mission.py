@@ -140,6 +140,28 @@ def test_auto_runs_only_the_alt_frames_sub_accepts_and_skips_ineffective_do_item
         assert hb.custom_mode == Mode.AUTO  # mission end: loiter in AUTO
 
 
+def test_disarm_resets_the_mission_and_auto_then_starts_at_item_1():
+    """AP_Arming_Sub::disarm calls sub.mission.reset(): after a disarm, AUTO starts the
+    mission again at item 1; without one it resumes where it was (AP_Mission::start_or_resume)."""
+    items = [_item(0, frame=M.MAV_FRAME_GLOBAL, z=0.0),
+             _item(1, x=LAT0, z=-2.0, p=(1.0, 0.0, 0.0, 0.0)),  # here, 2 m deep, 1 s hold
+             _item(2, x=LAT0 + 900, z=-2.0)]  # 10 m north
+    for disarm in (False, True):
+        with running_vehicle(config=vehicle_config(start_depth_m=2.0)) as (sim, gcs):
+            assert _upload(gcs, items) == M.MAV_MISSION_ACCEPTED
+            assert gcs.arm().result == M.MAV_RESULT_ACCEPTED
+            assert gcs.set_mode(int(Mode.AUTO)).result == M.MAV_RESULT_ACCEPTED
+            assert gcs.wait_for("MISSION_ITEM_REACHED", 20.0, lambda m: m.seq == 1) is not None
+            assert gcs.set_mode(int(Mode.GUIDED)).result == M.MAV_RESULT_ACCEPTED  # item 2 not reached
+            if disarm:
+                assert gcs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0).result == M.MAV_RESULT_ACCEPTED
+                assert not sim.truth().armed
+                assert gcs.arm().result == M.MAV_RESULT_ACCEPTED
+            assert gcs.set_mode(int(Mode.AUTO)).result == M.MAV_RESULT_ACCEPTED
+            current = gcs.wait_for("MISSION_CURRENT", 2.0)
+            assert current is not None and current.seq == (1 if disarm else 2)
+
+
 def test_terrain_item_follows_the_seabed_by_the_rangefinder():
     world = FlatSeabed(15.0)
     north = ORIGIN[0] + math.degrees(10.0 / 6378137.0)

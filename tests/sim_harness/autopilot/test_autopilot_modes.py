@@ -65,7 +65,7 @@ def test_heartbeat_base_mode_and_status_as_ardusub_sends_them():
         assert gcs.wait_for("HEARTBEAT", 2.0, lambda m: m.custom_mode == Mode.ALT_HOLD).base_mode == 209
 
 
-def test_arming_in_guided_needs_no_check_of_position_and_disarm_resets_the_mission():
+def test_arming_in_guided_needs_no_check_of_position():
     """No mode refuses arming (allows_arming true for all, AP_Arming_Sub)."""
     faults = FaultConfig(position_loss=(TimeWindow(2.0, 100.0),))
     with running_vehicle(faults=faults) as (sim, gcs):

@@ -1,11 +1,13 @@
-"""Vehicle model: numpy and casadi agree; physical facts of thrust, drag, buoyancy, current."""
+"""Vehicle model: numpy, plain floats and casadi agree; physical facts of thrust, drag, buoyancy, current."""
 
 from __future__ import annotations
 
 import math
 
+import casadi as ca
 import numpy as np
 import pytest
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim_harness.errors import SimConfigError
@@ -14,12 +16,40 @@ from sim_harness.vehicle.dynamics import (
     RovParams,
     UniformCurrent,
     derivative,
+    rate_terms,
+    saturate_thrust,
     slew_tilt,
     step_rk4,
 )
 
 P = RovParams()
 finite = st.floats(-3.0, 3.0, allow_nan=False)
+
+
+def _casadi_derivative() -> ca.Function:
+    """The model's rates written once in casadi's algebra (``rate_terms``), as a Function."""
+    x, tau, cur = ca.SX.sym("x", 8), ca.SX.sym("tau", 4), ca.SX.sym("current", 3)
+    rates = rate_terms([x[i] for i in range(8)], [tau[i] for i in range(4)], [cur[i] for i in range(3)], P,
+                       ca.sin, ca.cos, ca.fabs)
+    return ca.Function("rates", [x, tau, cur], [ca.vertcat(*rates)])
+
+
+CASADI_RATES = _casadi_derivative()
+
+
+@settings(max_examples=200, deadline=None)
+@given(state=st.lists(finite, min_size=8, max_size=8),
+       thrust=st.lists(st.floats(-200.0, 200.0), min_size=4, max_size=4),
+       current=st.lists(finite, min_size=3, max_size=3))
+def test_numpy_float_and_casadi_rates_agree(state, thrust, current):
+    """The same rates in numpy (``derivative``, which also saturates the thrust), in plain
+    floats (``math``, as ``step_rk4`` evaluates them) and in casadi's symbolic algebra."""
+    expected = derivative(np.array(state), np.array(thrust), np.array(current), P)
+    tau = saturate_thrust(thrust, P)
+    floats = np.array(rate_terms(state, tau, current, P, math.sin, math.cos, abs))
+    symbolic = np.array(CASADI_RATES(state, tau, current)).ravel()
+    assert floats == pytest.approx(expected, rel=1e-12, abs=1e-12)
+    assert symbolic == pytest.approx(expected, rel=1e-12, abs=1e-12)
 
 
 def _steady(thrust, current=(0.0, 0.0, 0.0), seconds=60.0):
