@@ -17,7 +17,14 @@ Sub's own commands, then ``GCS_MAVLINK::handle_command_int_packet``
 - REQUEST_MESSAGE: FAILED for an id without an ``ap_message``, else ACCEPTED (even when
   nothing can be sent). SET_MESSAGE_INTERVAL: DENIED and "No ap_message for mavlink id
   (N)" for an unmapped id. REQUEST_AUTOPILOT_CAPABILITIES: param1 must be 1.
-- DO_REPOSITION: UNSUPPORTED (added in 4.6), as is every command not listed.
+- DO_MOUNT_CONTROL, DO_MOUNT_CONFIGURE, DO_GIMBAL_MANAGER_PITCHYAW and _CONFIGURE:
+  ``handle_command_mount`` -> ``AP_Mount::handle_command`` (:meth:`~sim_harness.autopilot.
+  mount.Mount.command`: FAILED without a mount, a gimbal device id other than 0 or 1).
+- DO_FLIGHTTERMINATION (``GCS_MAVLINK_Sub::handle_flight_termination``): param1 > 0.5
+  disarms at once, ACCEPTED; otherwise FAILED.
+- DO_REPOSITION: UNSUPPORTED (added in 4.6), as is every command not listed; so are
+  DO_SET_ROI* and DO_SET_ROI_SYSID here, which ArduSub 4.5 accepts (they aim the vehicle's
+  yaw or the mount at a place or another vehicle, not simulated).
 """
 
 from __future__ import annotations
@@ -90,7 +97,8 @@ def handle_command(ap: CommandTarget, command: int, p: tuple[float, ...], now_s:
         return M.MAV_RESULT_ACCEPTED if ap.set_mode(16) else M.MAV_RESULT_FAILED
     if command == M.MAV_CMD_NAV_LAND:
         return M.MAV_RESULT_ACCEPTED if ap.set_mode(9) else M.MAV_RESULT_FAILED
-    if command in (M.MAV_CMD_DO_MOUNT_CONTROL, M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, M.MAV_CMD_DO_MOUNT_CONFIGURE):
+    if command in (M.MAV_CMD_DO_MOUNT_CONTROL, M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, M.MAV_CMD_DO_MOUNT_CONFIGURE,
+                   M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE):  # GCS_MAVLINK::handle_command_mount
         return ap.mount_command(command, p)
     if command == M.MAV_CMD_GET_HOME_POSITION:
         if not ap.has_home():
@@ -116,10 +124,11 @@ def handle_command(ap: CommandTarget, command: int, p: tuple[float, ...], now_s:
             return M.MAV_RESULT_FAILED
         ap.queue_message(M.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
         return M.MAV_RESULT_ACCEPTED
-    if command == M.MAV_CMD_DO_FLIGHTTERMINATION:
+    if command == M.MAV_CMD_DO_FLIGHTTERMINATION:  # GCS_MAVLINK_Sub::handle_flight_termination
         if p[0] > 0.5:
             ap.disarm("flight termination", force=True)
-        return M.MAV_RESULT_ACCEPTED
+            return M.MAV_RESULT_ACCEPTED
+        return M.MAV_RESULT_FAILED
     return M.MAV_RESULT_UNSUPPORTED  # DO_REPOSITION (4.6+) included
 
 

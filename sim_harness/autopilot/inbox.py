@@ -9,6 +9,10 @@
 - PARAM_REQUEST_LIST / _READ / PARAM_SET (``GCS_Param.cpp``): unknown names get no reply,
   PARAM_SET's type field is ignored (the value is converted to the parameter's own type)
   and the echo carries index -1.
+- SET_MODE (the message): the mode change of DO_SET_MODE, with no reply in 4.5
+  (``GCS_MAVLINK::handle_set_mode``).
+- GIMBAL_MANAGER_SET_PITCHYAW and MOUNT_CONTROL are dropped without a mount or for a
+  gimbal device id other than 0 or 1 (``AP_Mount::handle_gimbal_manager_set_pitchyaw``).
 - REQUEST_DATA_STREAM sets the SRn_* rates; SET_GPS_GLOBAL_ORIGIN sets the EKF origin
   once (and is answered with GPS_GLOBAL_ORIGIN); FILE_TRANSFER_PROTOCOL gets a NAK
   (:mod:`~sim_harness.autopilot.ftp`).
@@ -86,8 +90,10 @@ class Inbox:
             params = (msg.param1, msg.param2, msg.param3, msg.param4, float(msg.x), float(msg.y), msg.z)
             return [_ack(msg.command, ap.command(msg.command, params, now_s), msg)]
         elif kind == "SET_MODE":
-            ok = bool(msg.base_mode & M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) and ap.set_mode(msg.custom_mode)
-            return [_ack(M.MAVLINK_MSG_ID_SET_MODE, M.MAV_RESULT_ACCEPTED if ok else M.MAV_RESULT_FAILED, msg)]
+            # GCS_MAVLINK::handle_set_mode: _set_mode_common, no reply (the COMMAND_ACK with
+            # command 11 that older versions sent went in 3f2c82df12, before Sub-4.5 branched).
+            if msg.base_mode & M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+                ap.set_mode(msg.custom_mode)
         elif kind == "MANUAL_CONTROL":
             self._manual_control(msg, now_s, my_gcs)
         elif kind == "RC_CHANNELS_OVERRIDE":
@@ -106,9 +112,11 @@ class Inbox:
             return ap.mission.handle(msg, now_s)
         elif kind in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET"):
             return self._param_message(msg, now_s)
-        elif kind == "GIMBAL_MANAGER_SET_PITCHYAW":
-            ap.mount.gimbal_manager_pitchyaw(math.degrees(msg.pitch), math.degrees(msg.yaw),
-                                             math.degrees(msg.pitch_rate), math.degrees(msg.yaw_rate), int(msg.flags))
+        elif kind == "GIMBAL_MANAGER_SET_PITCHYAW":  # AP_Mount::handle_gimbal_manager_set_pitchyaw
+            if ap.mount.reaches(int(msg.gimbal_device_id)):  # else no backend: dropped
+                ap.mount.gimbal_manager_pitchyaw(math.degrees(msg.pitch), math.degrees(msg.yaw),
+                                                 math.degrees(msg.pitch_rate), math.degrees(msg.yaw_rate),
+                                                 int(msg.flags))
         elif kind == "MOUNT_CONTROL":
             ap.mount.mount_control_message(float(msg.input_a))
         elif kind == "FILE_TRANSFER_PROTOCOL":

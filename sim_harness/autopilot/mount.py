@@ -20,7 +20,11 @@ Angles here are MAVLink's: mount *pitch* in radians, positive up (the sonar's ti
   (``handle_command_do_mount_control``). MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW needs pitch
   *and* yaw (or both rates) non-NaN, else FAILED (``AP_Mount::
   handle_command_do_gimbal_manager_pitchyaw``). MOUNT_CONTROL acts only in MAVLink
-  targeting (``handle_mount_control``).
+  targeting (``handle_mount_control``). DO_MOUNT_CONFIGURE sets the mode; without a mount
+  (``MNT1_TYPE`` 0) every mount command is FAILED (:meth:`Mount.command`). Not simulated:
+  GPS_POINT and SYSID targets and the HOME_LOCATION mode's aiming (the mount holds its angle
+  in those modes here; ArduSub 4.5 aims it at the place), so DO_MOUNT_CONTROL in GPS_POINT
+  is FAILED here where ArduSub accepts it.
 - **Status.** GIMBAL_DEVICE_ATTITUDE_STATUS carries the *target* (the servo has no
   feedback, ``AP_Mount_Servo::get_attitude_quaternion``) with ROLL_LOCK | PITCH_LOCK set
   whatever the type (``get_gimbal_device_flags``), gimbal_device_id = instance + 1.
@@ -114,18 +118,49 @@ class Mount:
         return M.MAV_RESULT_FAILED
 
     def mount_control_message(self, pitch_cdeg: float) -> None:
-        """MOUNT_CONTROL (deprecated message): only in MAVLink targeting, centidegrees."""
-        if self.mode == M.MAV_MOUNT_MODE_MAVLINK_TARGETING:
+        """MOUNT_CONTROL (deprecated message): only in MAVLink targeting, centidegrees
+        (``AP_Mount::handle_mount_control``: dropped without a mount)."""
+        if self.present and self.mode == M.MAV_MOUNT_MODE_MAVLINK_TARGETING:
             self.set_angle_target(pitch_cdeg * 0.01)
 
     def command(self, command: int, p: tuple[float, ...]) -> tuple[int, str | None]:
-        """DO_MOUNT_CONTROL, DO_GIMBAL_MANAGER_PITCHYAW (x = flags) or DO_MOUNT_CONFIGURE
-        (accepted, no effect simulated): (MAV_RESULT, warning text or None)."""
+        """The mount's commands as ``AP_Mount::handle_command`` takes them: (MAV_RESULT,
+        warning text or None).
+
+        - No mount (``MNT1_TYPE`` 0): ``get_primary()`` is null, so every one is FAILED.
+        - DO_MOUNT_CONFIGURE: ``backend->set_mode(param1)`` (modes RETRACT..HOME_LOCATION;
+          another is ignored), ACCEPTED (``handle_command_do_mount_configure``).
+        - DO_MOUNT_CONTROL: the mode from param7 (:meth:`do_mount_control`).
+        - DO_GIMBAL_MANAGER_PITCHYAW and _CONFIGURE: gimbal device id in param7, 0 the
+          primary and N instance N - 1: one mount here, so only 0 and 1 reach it, another
+          is FAILED (``handle_command_do_gimbal_manager_pitchyaw`` / ``_configure``).
+          CONFIGURE is FAILED when param1 or param2 lies outside -3..255, else ACCEPTED
+          (``AP_Mount_Backend::handle_command_do_gimbal_manager_configure``); the control
+          id it records feeds only GIMBAL_MANAGER_STATUS, which this vehicle does not send.
+        """
+        if not self.present:
+            return M.MAV_RESULT_FAILED, None
         if command == M.MAV_CMD_DO_MOUNT_CONTROL:
             return self.do_mount_control(p[0], p[1], p[2], int(p[6]))
+        if command == M.MAV_CMD_DO_MOUNT_CONFIGURE:
+            mode = int(p[0])
+            if M.MAV_MOUNT_MODE_RETRACT <= mode <= M.MAV_MOUNT_MODE_HOME_LOCATION:  # valid_mode
+                self.mode = mode
+                self._rate_rad_s = None
+            return M.MAV_RESULT_ACCEPTED, None
+        if not self.reaches(int(p[6])):
+            return M.MAV_RESULT_FAILED, None
         if command == M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW:
             return self.gimbal_manager_pitchyaw(p[0], p[1], p[2], p[3], int(p[4])), None
-        return M.MAV_RESULT_ACCEPTED, None
+        if command == M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE:
+            ok = all(-3 <= v <= 255 for v in (p[0], p[1]))
+            return (M.MAV_RESULT_ACCEPTED if ok else M.MAV_RESULT_FAILED), None
+        return M.MAV_RESULT_UNSUPPORTED, None
+
+    def reaches(self, gimbal_device_id: int) -> bool:
+        """Whether a gimbal-manager command or message for ``gimbal_device_id`` reaches this
+        mount (0: the primary, N: instance N - 1; one instance here)."""
+        return self.present and gimbal_device_id in (0, 1)
 
     def mission_pitchyaw(self, pitch_deg: float, yaw_deg: float, pitch_rate_deg_s: float,
                          yaw_rate_deg_s: float, flags: int) -> None:

@@ -119,3 +119,15 @@ def test_latency_delays_the_command_ack():
         ack = gcs.command(M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_HOME_POSITION)
         assert ack is not None
         assert sim.clock.now_s() - t0 >= 0.8  # 0.4 s each way
+
+
+def test_flight_termination_disarms_only_above_one_half():
+    """GCS_MAVLINK_Sub::handle_flight_termination: param1 > 0.5 disarms at once (ACCEPTED);
+    any other value is FAILED and changes nothing."""
+    with running_vehicle() as (sim, gcs):
+        assert gcs.arm().result == M.MAV_RESULT_ACCEPTED
+        assert gcs.command(M.MAV_CMD_DO_FLIGHTTERMINATION, 0.0).result == M.MAV_RESULT_FAILED
+        assert gcs.command(M.MAV_CMD_DO_FLIGHTTERMINATION, 0.5).result == M.MAV_RESULT_FAILED
+        assert sim.truth().armed
+        assert gcs.command(M.MAV_CMD_DO_FLIGHTTERMINATION, 1.0).result == M.MAV_RESULT_ACCEPTED
+        assert not sim.truth().armed

@@ -87,3 +87,61 @@ def test_gimbal_manager_needs_pitch_and_yaw_and_a_mode_change_returns_to_rc_targ
         gcs.auto_manual_control = True
         gcs.run_for(1.0)
         assert 50.0 < math.degrees(sim.truth().tilt_rad) < 58.0
+
+
+def test_without_a_mount_every_mount_command_fails_and_messages_are_dropped():
+    """MNT1_TYPE 0: AP_Mount has no backend, ``get_primary()`` is null, so DO_MOUNT_CONTROL,
+    DO_MOUNT_CONFIGURE and the gimbal-manager commands are FAILED (AP_Mount::handle_command_*)."""
+    cfg = vehicle_config(mount=LIMITS, start_depth_m=2, disturbance=LEVEL, params={"MNT1_TYPE": 0})
+    with running_vehicle(config=cfg) as (sim, gcs):
+        tilt0 = sim.truth().tilt_rad
+        for command, params in ((M.MAV_CMD_DO_MOUNT_CONTROL, (-30.0, 0, 0, 0, 0, 0, 2)),
+                                (M.MAV_CMD_DO_MOUNT_CONFIGURE, (2, 0, 0, 0, 0, 0, 0)),
+                                (M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, (-30.0, 0.0, math.nan, math.nan, 0, 0, 0)),
+                                (M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, (-2, -2, -1, -1, 0, 0, 0))):
+            assert gcs.command(command, *params).result == M.MAV_RESULT_FAILED, command
+        gcs.conn.mav.gimbal_manager_set_pitchyaw_send(1, 1, 0, 0, math.radians(-30.0), 0.0, math.nan, math.nan)
+        gcs.run_for(2.0)
+        assert sim.truth().tilt_rad == tilt0
+
+
+def test_mount_configure_sets_the_mode_the_mount_control_message_needs():
+    """DO_MOUNT_CONFIGURE calls ``backend->set_mode(param1)``; MOUNT_CONTROL then moves the
+    mount, which it does only in MAVLink targeting (``handle_mount_control``)."""
+    with running_vehicle(config=vehicle_config(mount=LIMITS, start_depth_m=2, disturbance=LEVEL)) as (sim, gcs):
+        assert sim.autopilot.mount.mode == M.MAV_MOUNT_MODE_RC_TARGETING  # MNT1_DEFLT_MODE 3
+        pitch0 = sim.autopilot.mount.pitch_rad
+        gcs.conn.mav.mount_control_send(1, 1, -3000, 0, 0, 0)  # ignored in RC targeting
+        gcs.run_for(1.0)
+        assert sim.autopilot.mount.pitch_rad == pitch0
+        ack = gcs.command(M.MAV_CMD_DO_MOUNT_CONFIGURE, M.MAV_MOUNT_MODE_MAVLINK_TARGETING, 0, 0, 0, 0, 0, 0)
+        assert ack.result == M.MAV_RESULT_ACCEPTED
+        gcs.conn.mav.mount_control_send(1, 1, -3000, 0, 0, 0)  # centidegrees: 30 deg down
+        gcs.run_for(3.0)
+        assert abs(math.degrees(sim.truth().tilt_rad) - 30.0) < 0.3
+
+
+def test_gimbal_manager_configure_and_device_ids():
+    """DO_GIMBAL_MANAGER_CONFIGURE: FAILED for param1 or param2 outside -3..255, else
+    ACCEPTED (AP_Mount_Backend::handle_command_do_gimbal_manager_configure). The gimbal
+    device id (param7 of the commands, ``gimbal_device_id`` of GIMBAL_MANAGER_SET_PITCHYAW):
+    0 is the primary and N instance N - 1, so with one mount 2 finds none: FAILED, or the
+    message dropped."""
+    nan = math.nan
+    with running_vehicle(config=vehicle_config(mount=LIMITS, start_depth_m=2, disturbance=LEVEL)) as (sim, gcs):
+        configure = M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE
+        assert gcs.command(configure, -2, -2, -1, -1, 0, 0, 0).result == M.MAV_RESULT_ACCEPTED
+        assert gcs.command(configure, 300, 0, -1, -1, 0, 0, 0).result == M.MAV_RESULT_FAILED
+        assert gcs.command(configure, -2, -4, -1, -1, 0, 0, 0).result == M.MAV_RESULT_FAILED
+        assert gcs.command(configure, -2, -2, -1, -1, 0, 0, 2).result == M.MAV_RESULT_FAILED
+        pitchyaw = M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW
+        assert gcs.command(pitchyaw, -20.0, 0.0, nan, nan, 0, 0, 2).result == M.MAV_RESULT_FAILED
+        assert gcs.command(pitchyaw, -20.0, 0.0, nan, nan, 0, 0, 1).result == M.MAV_RESULT_ACCEPTED
+        gcs.run_for(3.0)
+        assert abs(math.degrees(sim.truth().tilt_rad) - 20.0) < 0.3
+        gcs.conn.mav.gimbal_manager_set_pitchyaw_send(1, 1, 0, 2, math.radians(-40.0), 0.0, nan, nan)  # device 2
+        gcs.run_for(3.0)
+        assert abs(math.degrees(sim.truth().tilt_rad) - 20.0) < 0.3
+        gcs.conn.mav.gimbal_manager_set_pitchyaw_send(1, 1, 0, 0, math.radians(-40.0), 0.0, nan, nan)  # primary
+        gcs.run_for(3.0)
+        assert abs(math.degrees(sim.truth().tilt_rad) - 40.0) < 0.3

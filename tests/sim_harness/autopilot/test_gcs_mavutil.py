@@ -33,11 +33,15 @@ def test_gcs_switches_modes_and_sees_them_in_the_heartbeat():
         ack = gcs.wait_for("COMMAND_ACK", 2.0, lambda m: m.command == M.MAV_CMD_DO_SET_MODE)
         assert ack is not None and ack.result == M.MAV_RESULT_ACCEPTED
         assert gcs.wait_for("HEARTBEAT", 2.0, lambda m: m.custom_mode == Mode.ALT_HOLD)
-        # The legacy SET_MODE message is answered with COMMAND_ACK command=11, as ArduPilot.
+        # The legacy SET_MODE message changes the mode with no reply: Sub 4.5's
+        # GCS_MAVLINK::handle_set_mode no longer sends the COMMAND_ACK (command 11) that
+        # earlier versions did (removed in 3f2c82df12, 2024-02-01, before Sub-4.5 branched).
         gcs.mav.set_mode_send(1, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, int(Mode.MANUAL))
-        ack = gcs.wait_for("COMMAND_ACK", 2.0, lambda m: m.command == M.MAVLINK_MSG_ID_SET_MODE)
-        assert ack is not None and ack.result == M.MAV_RESULT_ACCEPTED
         assert gcs.wait_for("HEARTBEAT", 2.0, lambda m: m.custom_mode == Mode.MANUAL)
+        assert not [m for m in gcs.log if m.get_type() == "COMMAND_ACK" and m.command == M.MAVLINK_MSG_ID_SET_MODE]
+        gcs.mav.set_mode_send(1, 0, int(Mode.GUIDED))  # without the custom-mode flag: ignored
+        gcs.run_for(1.5)
+        assert gcs.wait_for("HEARTBEAT", 2.0).custom_mode == Mode.MANUAL
 
 
 def _waypoints(origin_lat: float, origin_lon: float) -> list:
