@@ -158,6 +158,19 @@ class OnboardStatus:
     drift: Drift | None
 
 
+def frame_depth_m(mean_m: float, std_m: float) -> float:
+    """The depth a frame is stamped with, from the filter's estimate (m, positive down).
+
+    A sonar cannot be above the surface: an estimate there (the filter early in a dive, on
+    a lossy link before the depth sensor's stream is set, or a pressure offset) is the
+    surface when the surface lies within 3 sigma of it, otherwise unknown (NaN), so that
+    no frame carries a depth it may not (``frame-format.md``) and the dive goes on.
+    """
+    if not math.isfinite(mean_m) or mean_m >= 0.0:
+        return mean_m
+    return 0.0 if math.isfinite(std_m) and mean_m >= -3.0 * std_m else math.nan
+
+
 class OnboardPerception:
     """Filter, navigation and the frame-to-map chain, fed from telemetry and frames."""
 
@@ -344,7 +357,7 @@ class OnboardPerception:
         """The frame with the controller's own navigation and altitude (None: not yet known)."""
         nav = self._nav.at(frame.timestamp_s)
         altitude, _ = self.altitude(frame.timestamp_s)
-        depth, _ = self.depth(frame.timestamp_s)
+        depth = frame_depth_m(*self.depth(frame.timestamp_s))
         if nav is None or not (math.isfinite(nav.north_m) and math.isfinite(altitude) and altitude > 0):
             return None
         tilt = frame.tilt_rad
