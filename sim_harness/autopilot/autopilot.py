@@ -131,7 +131,7 @@ class Autopilot:
             set_mode=lambda mode, why: self.set_mode(mode, reason=why), text=self.text,
             neutral_controls=self.pilot.neutral), sitl_build=config.sitl_build)
         self.mission = MissionProtocol(self.home_tuple, self._on_new_mission, self.text,
-                                       lambda: self.runner.nav_index)
+                                       lambda: self.runner.nav_index, self.guided_request)
         self.runner = MissionRunner(self.mission, self.targets, MissionHooks(
             ned_of=lambda lat, lon: self.navigation.ned_of(lat * 1e-7, lon * 1e-7),
             terrain_available=lambda: self.rangefinder.enabled and int(self.params["WPNAV_RFND_USE"]) != 0,
@@ -258,6 +258,46 @@ class Autopilot:
         """DO_CHANGE_SPEED (``wp_nav.set_speed_xy``; below WPNAV_SPEED_MIN 20 cm/s ignored)."""
         if speed_m_s >= 0.2:
             self.params.set("WPNAV_SPEED", speed_m_s * 100.0)
+
+    def guided_request(self, item: StoredItem) -> bool:
+        """A MISSION_ITEM with current 2 (``Sub::do_guided``, ArduSub/commands_logic.cpp):
+        only in GUIDED (AUTO's NAV_GUIDED is not simulated); NAV_WAYPOINT flies to its
+        location (``ModeGuided::guided_set_destination(Location)``), CONDITION_YAW turns
+        (``do_yaw``); any other command is refused."""
+        if self.mode != Mode.GUIDED:
+            return False
+        if item.command == M.MAV_CMD_CONDITION_YAW:
+            angle_deg, _rate, _direction, relative = item.payload
+            self.set_yaw_target(float(angle_deg), relative=int(relative) == 1)
+            return True
+        if item.command != M.MAV_CMD_NAV_WAYPOINT:
+            return False
+        return self._guided_destination(item)
+
+    def _guided_destination(self, item: StoredItem) -> bool:
+        """``wp_nav.set_wp_destination_loc``: the location relative to the EKF origin. No
+        origin (or no home for an above-home altitude): refused. Unlike AUTO's
+        ``Sub::start_command`` there is no alt-frame check: an absolute altitude is above
+        sea level, one above home may be above the surface, and one above the terrain needs
+        the rangefinder (``get_terrain_offset``) and holds that altitude."""
+        nav, r = self.navigation, self.readings
+        ne = nav.ned_of(item.lat_e7 * 1e-7, item.lon_e7 * 1e-7)
+        if ne is None or nav.origin is None or r is None:
+            return False
+        alt_m = item.alt_cm / 100.0
+        if item.terrain_alt:
+            if not (self.rangefinder.enabled and int(self.params["WPNAV_RFND_USE"]) != 0):
+                return False
+            self._start_leg(ne[0], ne[1], None, alt_m)
+            return True
+        if item.relative_alt:
+            if nav.home is None:
+                return False
+            up_m = alt_m + nav.home.alt_m - nav.origin.alt_m
+        else:
+            up_m = alt_m - nav.origin.alt_m
+        self._start_leg(ne[0], ne[1], -up_m, None)
+        return True
 
     def set_yaw_target(self, yaw_deg: float, relative: bool) -> None:
         """CONDITION_YAW (``set_auto_yaw_look_at_heading``)."""

@@ -21,6 +21,11 @@
   ``current`` is 1 when the item's *command id* equals the current nav index (as 4.5's
   ``get_item`` compares them), autocontinue always 1.
 - MISSION_CLEAR_ALL leaves only home.
+- Requests, not uploads (``GCS_MAVLINK::handle_mission_item``): an item with current 2
+  ("fly here now", as a ground station's "go to location") is decoded like an upload's
+  item and handed to ``Sub::do_guided`` (GUIDED only: NAV_WAYPOINT flies there,
+  CONDITION_YAW turns; else MAV_MISSION_ERROR); current 3 (altitude change) is ACCEPTED
+  with no effect (Sub has no ``handle_change_alt_request``). Neither is stored.
 """
 
 from __future__ import annotations
@@ -48,8 +53,10 @@ class MissionProtocol:
 
     def __init__(self, home: Callable[[], tuple[float, float, float] | None],
                  on_new_mission: Callable[[], None], text: Callable[[int, str], None],
-                 current_nav_index: Callable[[], int]) -> None:
+                 current_nav_index: Callable[[], int],
+                 guided_request: Callable[[StoredItem], bool] = lambda item: False) -> None:
         self._home = home
+        self._guided_request = guided_request
         self._on_new_mission = on_new_mission
         self._text = text
         self._current_nav_index = current_nav_index
@@ -124,23 +131,22 @@ class MissionProtocol:
 
     def _handle_item(self, msg: mavlink.MAVLink_message, peer: tuple[int, int],
                      now_s: float) -> list[mavlink.MAVLink_message]:
-        if msg.get_type() == "MISSION_ITEM_INT" and int(msg.current) in (2, 3):
-            return []  # GUIDED "fly to" / altitude change requests are not simulated
+        # ArduSub 4.5 GCS_Common.cpp GCS_MAVLINK::handle_mission_item: the float form is
+        # converted first; current 2 and 3 are requests, not parts of an upload.
+        as_int = msg.get_type() == "MISSION_ITEM_INT"
+        x, y = (int(msg.x), int(msg.y)) if as_int else float_item_xy(float(msg.x), float(msg.y))
+        if int(msg.current) in (2, 3):
+            return [self._request_item(msg, x, y, peer)]
+        if not as_int and not self._warned_float:  # MissionItemProtocol::send_mission_item_warning
+            self._warned_float = True
+            self._text(mavlink.MAV_SEVERITY_WARNING, "got MISSION_ITEM; GCS should send MISSION_ITEM_INT")
         if not self._receiving:
-            # ArduSub 4.5 GCS_Common.cpp GCS_MAVLINK::handle_mission_item: not receiving
             return [self._ack(peer, mavlink.MAV_MISSION_ERROR)]
         if peer != self._upload_peer:
             return [self._ack(peer, mavlink.MAV_MISSION_DENIED)]
         if int(msg.seq) != self._next_seq:
             return [self._ack(peer, mavlink.MAV_MISSION_INVALID_SEQUENCE)]
         self._last_receive_s = now_s
-        if msg.get_type() == "MISSION_ITEM_INT":
-            x, y = int(msg.x), int(msg.y)
-        else:
-            if not self._warned_float:
-                self._warned_float = True
-                self._text(mavlink.MAV_SEVERITY_WARNING, "got MISSION_ITEM; GCS should send MISSION_ITEM_INT")
-            x, y = float_item_xy(float(msg.x), float(msg.y))
         item, result = store_item(int(msg.command), int(msg.frame),
                                   (float(msg.param1), float(msg.param2), float(msg.param3), float(msg.param4)),
                                   x, y, float(msg.z))
@@ -159,6 +165,20 @@ class MissionProtocol:
         self._on_new_mission()
         self._text(mavlink.MAV_SEVERITY_INFO, "Flight plan received")
         return [self._ack(peer, mavlink.MAV_MISSION_ACCEPTED)]
+
+    def _request_item(self, msg: mavlink.MAVLink_message, x: int, y: int,
+                      peer: tuple[int, int]) -> mavlink.MAVLink_message:
+        """A "guided" item (current 2: fly there now) or an altitude change (current 3):
+        decoded as an upload's item would be (``mavlink_int_to_mission_cmd``: its refusal is
+        the answer), then current 2 goes to ``handle_guided_request`` (``Sub::do_guided``:
+        ACCEPTED or MAV_MISSION_ERROR) and current 3 is ACCEPTED with no effect (Sub has no
+        ``handle_change_alt_request``). Nothing is stored."""
+        item, result = store_item(int(msg.command), int(msg.frame),
+                                  (float(msg.param1), float(msg.param2), float(msg.param3), float(msg.param4)),
+                                  x, y, float(msg.z))
+        if item is not None and int(msg.current) == 2:
+            result = mavlink.MAV_MISSION_ACCEPTED if self._guided_request(item) else mavlink.MAV_MISSION_ERROR
+        return self._ack(peer, result)
 
     def _item_reply(self, seq: int, peer: tuple[int, int], *, as_int: bool) -> mavlink.MAVLink_message:
         if not 0 <= seq < len(self.items):

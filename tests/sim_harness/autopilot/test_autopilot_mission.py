@@ -162,6 +162,54 @@ def test_disarm_resets_the_mission_and_auto_then_starts_at_item_1():
             assert current is not None and current.seq == (1 if disarm else 2)
 
 
+def _go_here(gcs, item, current: int = 2) -> int:
+    """Send ``item`` as a "guided" request (current 2) or an altitude change (current 3): the
+    MISSION_ACK's type."""
+    item.current = current
+    gcs.mav.send(item)
+    ack = gcs.wait_for("MISSION_ACK", 2.0)
+    assert ack is not None
+    return ack.type
+
+
+def test_go_here_items_fly_in_guided_and_are_refused_elsewhere():
+    """GCS_MAVLINK::handle_mission_item: current 2 is ``handle_guided_request`` ->
+    ``Sub::do_guided``: only in GUIDED, NAV_WAYPOINT flies to the place, CONDITION_YAW turns,
+    any other command MAV_MISSION_ERROR; the item is decoded as an upload's would be (its
+    refusal is the answer); current 3 is ACCEPTED with no effect; nothing is stored."""
+    north = LAT0 + int(round(math.degrees(10.0 / 6378137.0) * 1e7))  # 10 m north
+    with running_vehicle(config=vehicle_config(start_depth_m=2.0)) as (sim, gcs):
+        stored = len(_download(gcs))
+        assert gcs.arm().result == M.MAV_RESULT_ACCEPTED
+        assert gcs.set_mode(int(Mode.ALT_HOLD)).result == M.MAV_RESULT_ACCEPTED
+        assert _go_here(gcs, _item(0, x=north, z=-3.0)) == M.MAV_MISSION_ERROR  # not GUIDED
+        assert gcs.set_mode(int(Mode.GUIDED)).result == M.MAV_RESULT_ACCEPTED
+        change_speed = _item(0, frame=M.MAV_FRAME_MISSION, command=M.MAV_CMD_DO_CHANGE_SPEED, p=(1.0, 0.5, 0, 0),
+                             x=0, y=0, z=0)
+        assert _go_here(gcs, change_speed) == M.MAV_MISSION_ERROR  # do_guided rejects it
+        assert _go_here(gcs, _item(0, x=north, z=-3.0, p=(math.nan, 0, 0, 0))) == M.MAV_MISSION_INVALID_PARAM1
+        assert _go_here(gcs, _item(0, x=north, z=-3.0), current=3) == M.MAV_MISSION_ACCEPTED
+        gcs.run_for(5.0)
+        assert abs(sim.truth().north_m) < 0.5  # the altitude change did nothing
+        assert _go_here(gcs, _item(0, x=north, z=-3.0)) == M.MAV_MISSION_ACCEPTED
+        gcs.run_for(40.0)
+        t = sim.truth()
+        assert abs(t.north_m - 10.0) < 0.5 and abs(t.east_m) < 0.5 and abs(t.depth_m - 3.0) < 0.3
+        yaw = _item(0, frame=M.MAV_FRAME_MISSION, command=M.MAV_CMD_CONDITION_YAW, p=(90.0, 0, 0, 0), x=0, y=0, z=0)
+        assert _go_here(gcs, yaw) == M.MAV_MISSION_ACCEPTED
+        gcs.run_for(15.0)
+        assert abs(math.degrees(sim.truth().yaw_rad) - 90.0) < 3.0
+        # The float form is converted first and taken the same way (the float-item warning is
+        # sent on the upload path only, after the requests are answered).
+        back = M.MAVLink_mission_item_message(1, 1, 0, REL, M.MAV_CMD_NAV_WAYPOINT, 2, 1, 0, 0, 0, 0,
+                                               LAT0 * 1e-7, LON0 * 1e-7, -3.0, 0)
+        gcs.mav.send(back)
+        assert gcs.wait_for("MISSION_ACK", 2.0).type == M.MAV_MISSION_ACCEPTED
+        gcs.run_for(40.0)
+        assert abs(sim.truth().north_m) < 0.5
+        assert len(_download(gcs)) == stored
+
+
 def test_terrain_item_follows_the_seabed_by_the_rangefinder():
     world = FlatSeabed(15.0)
     north = ORIGIN[0] + math.degrees(10.0 / 6378137.0)
