@@ -216,6 +216,7 @@ class Autopilot:
         if mode == Mode.GUIDED:
             self.targets.pos_control_start(r, self.params["WPNAV_ACCEL"] / 100.0)  # ModeGuided::init
         elif mode == Mode.AUTO:
+            self.targets.speed_m_s = None  # ModeAuto::init: wp_nav.wp_and_spline_init()
             self.runner.begin(r)
 
     def _start_leg(self, north_m: float, east_m: float, depth_m: float | None, altitude_m: float | None) -> None:
@@ -255,9 +256,11 @@ class Autopilot:
         return True
 
     def set_leg_speed(self, speed_m_s: float) -> None:
-        """DO_CHANGE_SPEED (``wp_nav.set_speed_xy``; below WPNAV_SPEED_MIN 20 cm/s ignored)."""
+        """DO_CHANGE_SPEED (``wp_nav.set_speed_xy``; below WPNAV_WP_SPEED_MIN 20 cm/s
+        ignored): the controller's speed until its next ``wp_and_spline_init``, not the
+        WPNAV_SPEED parameter (:attr:`~sim_harness.autopilot.guidance.Targets.speed_m_s`)."""
         if speed_m_s >= 0.2:
-            self.params.set("WPNAV_SPEED", speed_m_s * 100.0)
+            self.targets.speed_m_s = speed_m_s
 
     def guided_request(self, item: StoredItem) -> bool:
         """A MISSION_ITEM with current 2 (``Sub::do_guided``, ArduSub/commands_logic.cpp):
@@ -424,6 +427,8 @@ class Autopilot:
                 self.set_mode(Mode.ALT_HOLD, reason="surface complete")  # ModeSurface::run at the surface
         else:
             self.thrust = (0.0, 0.0, 0.0, 0.0)
+            if self.mode in (Mode.AUTO, Mode.GUIDED):  # their run(), disarmed: wp_and_spline_init()
+                self.targets.speed_m_s = None
         servo_pitch = self.mount.servo_output_rad(r.pitch_rad)
         self.servo_tilt_rad = self.mount_limits.clamp(-servo_pitch)
         out = self._drain()

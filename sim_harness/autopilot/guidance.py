@@ -92,6 +92,11 @@ class Targets:
     depth_m: float | None = None
     alt_m: float | None = None
     yaw_rad: float | None = None
+    #: The waypoint controller's horizontal speed when DO_CHANGE_SPEED set one, m/s
+    #: (``AC_WPNav::set_speed_xy``); None: WPNAV_SPEED. The parameter itself never changes;
+    #: ``wp_and_spline_init`` (GUIDED's position control start, AUTO's entry, and every
+    #: step while disarmed in either) goes back to it.
+    speed_m_s: float | None = None
 
     def hold_here(self, r: SensorReadings, *, position_ok: bool) -> None:
         """Hold the current estimated position, depth and heading (mode entry)."""
@@ -105,8 +110,10 @@ class Targets:
         self.hold_ne = (r.north_m, r.east_m) if position_ok else None
 
     def pos_control_start(self, r: SensorReadings, accel_m_s2: float) -> None:
-        """``ModeGuided::guided_pos_control_start``: a leg to the stopping point."""
+        """``ModeGuided::guided_pos_control_start``: a leg to the stopping point
+        (``wp_and_spline_init``: back to WPNAV_SPEED)."""
         self.submode = GuidedSubmode.WP
+        self.speed_m_s = None
         stop = stopping_point(r.north_m, r.east_m, r.vel_north_m_s, r.vel_east_m_s, accel_m_s2)
         self.leg = Leg(stop, stop)
         self.posvel = self.velocity = None
@@ -178,10 +185,16 @@ class Guidance:
         """Forget the loop integrators (on a mode change or arming)."""
         self._integ.reset()
 
-    def leg_limits(self) -> LegLimits:
-        """WPNAV_SPEED (cm/s), WPNAV_ACCEL (cm/s/s), WPNAV_JERK (m/s/s/s)."""
+    def leg_limits(self, tg: Targets | None = None) -> LegLimits:
+        """WPNAV_SPEED (cm/s) or the speed DO_CHANGE_SPEED set (``tg.speed_m_s``),
+        WPNAV_ACCEL (cm/s/s), WPNAV_JERK (m/s/s/s)."""
         p = self._params
-        return LegLimits(p["WPNAV_SPEED"] / 100.0, p["WPNAV_ACCEL"] / 100.0, p["WPNAV_JERK"])
+        return LegLimits(self._speed_m_s(tg), p["WPNAV_ACCEL"] / 100.0, p["WPNAV_JERK"])
+
+    def _speed_m_s(self, tg: Targets | None) -> float:
+        if tg is not None and tg.speed_m_s is not None:
+            return tg.speed_m_s
+        return self._params["WPNAV_SPEED"] / 100.0
 
     def _pilot_speeds_m_s(self) -> tuple[float, float]:
         up = self._params["PILOT_SPEED_UP"] / 100.0
@@ -261,7 +274,7 @@ class Guidance:
             return None, 0.0, 0.0, False
         if mode not in (Mode.GUIDED, Mode.AUTO, Mode.POSHOLD):
             return None, 0.0, 0.0, False
-        max_speed = self._params["WPNAV_SPEED"] / 100.0
+        max_speed = self._speed_m_s(tg)
         if mode == Mode.GUIDED and tg.submode == GuidedSubmode.VELOCITY and tg.velocity is not None:
             vn, ve, _ = tg.velocity.current(now_s)
             return (vn, ve), 0.0, 0.0, False
@@ -272,7 +285,7 @@ class Guidance:
                                max(max_speed, math.hypot(pv.vel_north_m_s, pv.vel_east_m_s))) + (False,)
         if tg.leg is not None:
             leg = tg.leg
-            leg.advance(dt_s, self.leg_limits())
+            leg.advance(dt_s, self.leg_limits(tg))
             vel, bearing, _ = self._track(leg.point(), leg.velocity(), r, max_speed)
             dn, de = leg.destination[0] - r.north_m, leg.destination[1] - r.east_m
             dist = math.hypot(dn, de)

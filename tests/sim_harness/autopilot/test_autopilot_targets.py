@@ -129,3 +129,30 @@ def test_leg_profile_limits_and_restart():
     for _ in range(25):  # 0.5 s from rest: jerk-limited, barely moving
         short.advance(0.02, limits)
     assert short.s_m < 0.05
+
+
+def _top_speed_m_s(sim, gcs, seconds: float) -> float:
+    speeds = []
+    for _ in range(int(seconds / 0.5)):
+        gcs.run_for(0.5)
+        t = sim.truth()
+        speeds.append(math.hypot(t.surge_m_s, t.sway_m_s))  # body frame: the same horizontal speed
+    return max(speeds)
+
+
+def test_change_speed_holds_until_the_controller_restarts_and_leaves_the_parameter():
+    """MAV_CMD_DO_CHANGE_SPEED -> ``AC_WPNav::set_speed_xy``: the legs run at that speed, the
+    WPNAV_SPEED parameter is untouched, and GUIDED's next ``guided_pos_control_start``
+    (``wp_and_spline_init``) is back at WPNAV_SPEED."""
+    with running_vehicle(FlatSeabed(30.0), config=vehicle_config(start_depth_m=2.0)) as (sim, gcs):
+        _guided(gcs)
+        wpnav_m_s = sim.autopilot.params["WPNAV_SPEED"] / 100.0
+        assert gcs.command(M.MAV_CMD_DO_CHANGE_SPEED, 1, 0.3, -1, 0).result == M.MAV_RESULT_ACCEPTED
+        assert gcs.command(M.MAV_CMD_DO_CHANGE_SPEED, 1, 0.0, -1, 0).result == M.MAV_RESULT_FAILED
+        _local(gcs, POS, 12.0, 0.0, 2.0)
+        assert abs(_top_speed_m_s(sim, gcs, 20.0) - 0.3) < 0.05
+        assert gcs.param("WPNAV_SPEED").param_value == wpnav_m_s * 100.0
+        assert gcs.set_mode(int(Mode.ALT_HOLD)).result == M.MAV_RESULT_ACCEPTED
+        assert gcs.set_mode(int(Mode.GUIDED)).result == M.MAV_RESULT_ACCEPTED
+        _local(gcs, POS, -12.0, 0.0, 2.0)
+        assert abs(_top_speed_m_s(sim, gcs, 20.0) - wpnav_m_s) < 0.1
