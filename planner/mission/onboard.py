@@ -45,6 +45,7 @@ from perception.mapping.survey_map import Drift, SurveyMap
 from perception.navigation.altitude_filter import AltitudeFilter, AltitudeFilterConfig
 from perception.navigation.history import NavigationHistory, NavSample
 from perception.sonar_io.frame import SonarFrame
+from planner.mission.frame_depth import frame_depth_m
 from planner.mission.onboard_map import OnboardMap
 from vehicle_link.telemetry import Attitude, GlobalPosition, LocalPositionNed, MountStatus, Rangefinder
 
@@ -156,19 +157,6 @@ class OnboardStatus:
     frames_mapped: int
     measured_last_frame: int
     drift: Drift | None
-
-
-def frame_depth_m(mean_m: float, std_m: float) -> float:
-    """The depth a frame is stamped with, from the filter's estimate (m, positive down).
-
-    A sonar cannot be above the surface: an estimate there (the filter early in a dive, on
-    a lossy link before the depth sensor's stream is set, or a pressure offset) is the
-    surface when the surface lies within 3 sigma of it, otherwise unknown (NaN), so that
-    no frame carries a depth it may not (``frame-format.md``) and the dive goes on.
-    """
-    if not math.isfinite(mean_m) or mean_m >= 0.0:
-        return mean_m
-    return 0.0 if math.isfinite(std_m) and mean_m >= -3.0 * std_m else math.nan
 
 
 class OnboardPerception:

@@ -26,12 +26,11 @@ it) is :mod:`~sim_harness.autopilot.status`.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim_harness.autopilot.commands import handle_command
+from sim_harness.autopilot.config import AutopilotConfig
 from sim_harness.autopilot.failsafes import FailsafeActions, Failsafes
 from sim_harness.autopilot.guidance import (
     INIT_NEEDS_POSITION,
@@ -42,13 +41,14 @@ from sim_harness.autopilot.guidance import (
     Mode,
     Targets,
 )
+from sim_harness.autopilot.guided_request import do_guided
 from sim_harness.autopilot.inbox import Inbox
 from sim_harness.autopilot.mission import MissionProtocol
 from sim_harness.autopilot.mission_runner import MissionHooks, MissionRunner
 from sim_harness.autopilot.mission_storage import StoredItem
 from sim_harness.autopilot.mount import Mount
 from sim_harness.autopilot.navigation import GeoPoint, Navigation
-from sim_harness.autopilot.params import BLUEOS_DVL_SETUP, ParamTable
+from sim_harness.autopilot.params import ParamTable
 from sim_harness.autopilot.pilot import PilotInput
 from sim_harness.autopilot.rangefinder import Rangefinder
 from sim_harness.autopilot.status import snapshot
@@ -66,34 +66,6 @@ from sim_harness.vehicle.sensors import SensorReadings
 __all__ = ["Autopilot", "AutopilotConfig", "Mode"]
 
 M = mavlink
-
-
-@dataclass(frozen=True)
-class AutopilotConfig:
-    """Autopilot settings.
-
-    Attributes
-    ----------
-    origin : (lat_deg, lon_deg, alt_m) or None
-        The EKF origin at boot; None (a real sub without GPS) until SET_GPS_GLOBAL_ORIGIN
-        (the DVL extension, a ground station or the companion) sets it.
-    setup : mapping
-        Parameters the owner has set (default :data:`~sim_harness.autopilot.params.BLUEOS_DVL_SETUP`).
-    params : mapping
-        Further parameter overrides (ArduSub 4.5 names).
-    arming_fail_reason : str or None
-        A pre-arm failure to simulate (e.g. "Leak Detected").
-    sitl_build : bool
-        Behave as ArduPilot's SITL build, which compiles the pilot-input failsafe out.
-    """
-
-    origin: tuple[float, float, float] | None = None
-    setup: Mapping[str, float] = field(default_factory=lambda: dict(BLUEOS_DVL_SETUP))
-    params: Mapping[str, float] = field(default_factory=dict)
-    arming_fail_reason: str | None = None
-    sitl_build: bool = False
-    system_id: int = 1
-    component_id: int = 1
 
 
 class Autopilot:
@@ -263,44 +235,11 @@ class Autopilot:
             self.targets.speed_m_s = speed_m_s
 
     def guided_request(self, item: StoredItem) -> bool:
-        """A MISSION_ITEM with current 2 (``Sub::do_guided``, ArduSub/commands_logic.cpp):
-        only in GUIDED (AUTO's NAV_GUIDED is not simulated); NAV_WAYPOINT flies to its
-        location (``ModeGuided::guided_set_destination(Location)``), CONDITION_YAW turns
-        (``do_yaw``); any other command is refused."""
-        if self.mode != Mode.GUIDED:
-            return False
-        if item.command == M.MAV_CMD_CONDITION_YAW:
-            angle_deg, _rate, _direction, relative = item.payload
-            self.set_yaw_target(float(angle_deg), relative=int(relative) == 1)
-            return True
-        if item.command != M.MAV_CMD_NAV_WAYPOINT:
-            return False
-        return self._guided_destination(item)
-
-    def _guided_destination(self, item: StoredItem) -> bool:
-        """``wp_nav.set_wp_destination_loc``: the location relative to the EKF origin. No
-        origin (or no home for an above-home altitude): refused. Unlike AUTO's
-        ``Sub::start_command`` there is no alt-frame check: an absolute altitude is above
-        sea level, one above home may be above the surface, and one above the terrain needs
-        the rangefinder (``get_terrain_offset``) and holds that altitude."""
-        nav, r = self.navigation, self.readings
-        ne = nav.ned_of(item.lat_e7 * 1e-7, item.lon_e7 * 1e-7)
-        if ne is None or nav.origin is None or r is None:
-            return False
-        alt_m = item.alt_cm / 100.0
-        if item.terrain_alt:
-            if not (self.rangefinder.enabled and int(self.params["WPNAV_RFND_USE"]) != 0):
-                return False
-            self._start_leg(ne[0], ne[1], None, alt_m)
-            return True
-        if item.relative_alt:
-            if nav.home is None:
-                return False
-            up_m = alt_m + nav.home.alt_m - nav.origin.alt_m
-        else:
-            up_m = alt_m - nav.origin.alt_m
-        self._start_leg(ne[0], ne[1], -up_m, None)
-        return True
+        """A MISSION_ITEM with current 2: :func:`~sim_harness.autopilot.guided_request.do_guided`."""
+        return self.readings is not None and do_guided(
+            item, in_guided=self.mode == Mode.GUIDED, nav=self.navigation,
+            terrain_available=self.rangefinder.enabled and int(self.params["WPNAV_RFND_USE"]) != 0,
+            start_leg=self._start_leg, set_yaw_target=lambda deg, rel: self.set_yaw_target(deg, relative=rel))
 
     def set_yaw_target(self, yaw_deg: float, relative: bool) -> None:
         """CONDITION_YAW (``set_auto_yaw_look_at_heading``)."""

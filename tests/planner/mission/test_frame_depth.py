@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from perception.sonar_io.frame import SonarFrame
-from planner.mission.onboard import frame_depth_m
+from planner.mission.frame_depth import frame_depth_m
 
 
 @pytest.mark.parametrize(("mean", "std", "expected"), [
