@@ -45,7 +45,7 @@ from perception.mapping.survey_map import Drift, SurveyMap
 from perception.navigation.altitude_filter import AltitudeFilter, AltitudeFilterConfig
 from perception.navigation.history import NavigationHistory, NavSample
 from perception.sonar_io.frame import SonarFrame
-from planner.mission.frame_depth import frame_depth_m
+from planner.mission.frame_depth import MAX_DEPTH_STD_M, frame_depth_m
 from planner.mission.onboard_map import OnboardMap
 from vehicle_link.telemetry import Attitude, GlobalPosition, LocalPositionNed, MountStatus, Rangefinder
 
@@ -333,11 +333,16 @@ class OnboardPerception:
         return float(x[2]), float(math.sqrt(max(p[2, 2], 0.0)))
 
     def depth(self, time_s: float) -> tuple[float, float]:
-        """(vehicle depth, std) from the filter; NaN when it cannot say."""
+        """(vehicle depth, std) from the filter; NaN when it cannot say: outside its window,
+        or sure to no better than :data:`~planner.mission.frame_depth.MAX_DEPTH_STD_M` (before
+        the first depth reading its prior, split by a first altimeter reading, says -1 m
+        +- 70 m for an altitude of 2 m: no depth to hold, to surface from or to stamp)."""
         try:
             est = self._filter.depth_at(time_s)
         except (ValueError, LookupError):
             return math.nan, math.nan
+        if not est.std <= MAX_DEPTH_STD_M:
+            return math.nan, float(est.std)
         return float(est.mean), float(est.std)
 
     # ------------------------------------------------------------------ frames
