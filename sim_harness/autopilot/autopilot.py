@@ -239,13 +239,22 @@ class Autopilot:
         return self.readings is not None and do_guided(
             item, in_guided=self.mode == Mode.GUIDED, nav=self.navigation,
             terrain_available=self.rangefinder.enabled and int(self.params["WPNAV_RFND_USE"]) != 0,
-            start_leg=self._start_leg, set_yaw_target=lambda deg, rel: self.set_yaw_target(deg, relative=rel))
+            start_leg=self._start_leg,
+            set_yaw_target=lambda deg, rel, way: self.set_yaw_target(deg, relative=rel, direction=way))
 
-    def set_yaw_target(self, yaw_deg: float, relative: bool) -> None:
-        """CONDITION_YAW (``set_auto_yaw_look_at_heading``)."""
-        r = self.readings
-        base = r.yaw_rad if (relative and r is not None) else 0.0
-        self.targets.yaw_rad = base + math.radians(yaw_deg)
+    def set_yaw_target(self, yaw_deg: float, relative: bool, direction: int = 1) -> None:
+        """CONDITION_YAW (``ModeAuto::set_auto_yaw_look_at_heading``): an absolute heading, or
+        an angle from the attitude target's yaw (the heading held, else the measured one),
+        counter-clockwise when ``direction`` < 0; wrapped to 0..360 deg. Its turn rate is
+        not simulated (the heading controller's own applies)."""
+        if relative:
+            r = self.readings
+            held = self.targets.yaw_rad
+            base = held if held is not None else (r.yaw_rad if r is not None else 0.0)
+            yaw_rad = base + math.radians(-yaw_deg if direction < 0 else yaw_deg)
+        else:
+            yaw_rad = math.radians(yaw_deg)
+        self.targets.yaw_rad = yaw_rad % (2.0 * math.pi)
 
     # ------------------------------------------------------------------ arming
     def arm(self, *, force: bool) -> bool:

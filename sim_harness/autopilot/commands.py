@@ -12,7 +12,8 @@ Sub's own commands, then ``GCS_MAVLINK::handle_command_int_packet``
 - MISSION_START: armed and the switch to AUTO, else FAILED (params ignored in 4.5).
 - DO_SET_MISSION_CURRENT: a valid item, else FAILED.
 - DO_CHANGE_SPEED: param2 > 0 sets the leg speed, else FAILED. CONDITION_YAW: 0..360 and
-  param4 0/1, else DENIED. NAV_LOITER_UNLIM -> POSHOLD, NAV_LAND -> SURFACE.
+  param4 0/1, else DENIED; relative angles counter-clockwise for param3 < 0.
+  NAV_LOITER_UNLIM -> POSHOLD, NAV_LAND -> SURFACE.
 - GET_HOME_POSITION: FAILED without a home, else HOME_POSITION and GPS_GLOBAL_ORIGIN.
 - REQUEST_MESSAGE: FAILED for an id without an ``ap_message``, else ACCEPTED (even when
   nothing can be sent). SET_MESSAGE_INTERVAL: DENIED and "No ap_message for mavlink id
@@ -58,7 +59,7 @@ class CommandTarget(Protocol):
 
     def set_leg_speed(self, speed_m_s: float) -> None: ...
 
-    def set_yaw_target(self, yaw_deg: float, relative: bool) -> None: ...
+    def set_yaw_target(self, yaw_deg: float, relative: bool, direction: int = 1) -> None: ...
 
     def mount_command(self, command: int, p: tuple[float, ...]) -> int: ...
 
@@ -90,7 +91,7 @@ def handle_command(ap: CommandTarget, command: int, p: tuple[float, ...], now_s:
         return M.MAV_RESULT_FAILED
     if command == M.MAV_CMD_CONDITION_YAW:
         if 0.0 <= p[0] <= 360.0 and p[3] in (0.0, 1.0):
-            ap.set_yaw_target(p[0], relative=p[3] == 1.0)
+            ap.set_yaw_target(p[0], relative=p[3] == 1.0, direction=int(p[2]))  # param3 as int8_t
             return M.MAV_RESULT_ACCEPTED
         return M.MAV_RESULT_DENIED
     if command == M.MAV_CMD_NAV_LOITER_UNLIM:

@@ -12,7 +12,8 @@ the Sub-4.5 branch point 3926e06508.
   ``Sub::start_command`` there is no alt-frame check: an absolute altitude is above sea
   level, one above home may lie above the surface, and one above the terrain needs the
   rangefinder (``get_terrain_offset``) and then holds that altitude.
-- CONDITION_YAW: ``do_yaw`` (its angle, relative when param4 is 1).
+- CONDITION_YAW: ``do_yaw`` (its angle, relative when param4 is 1, counter-clockwise when
+  param3 < 0).
 - Any other command: refused (MAV_MISSION_ERROR).
 """
 
@@ -30,17 +31,17 @@ M = mavlink
 
 def do_guided(item: StoredItem, *, in_guided: bool, nav: Navigation, terrain_available: bool,
               start_leg: Callable[[float, float, float | None, float | None], None],
-              set_yaw_target: Callable[[float, bool], None]) -> bool:
+              set_yaw_target: Callable[[float, bool, int], None]) -> bool:
     """Fly or turn as ``item`` asks (module docstring); False when ArduSub refuses it.
 
     ``start_leg(north_m, east_m, depth_m or None, altitude_m or None)`` starts the GUIDED
-    leg; ``set_yaw_target(yaw_deg, relative)`` turns.
+    leg; ``set_yaw_target(yaw_deg, relative, direction)`` turns.
     """
     if not in_guided:
         return False
     if item.command == M.MAV_CMD_CONDITION_YAW:
-        angle_deg, _rate, _direction, relative = item.payload
-        set_yaw_target(float(angle_deg), int(relative) == 1)
+        angle_deg, _rate, direction, relative = item.payload
+        set_yaw_target(float(angle_deg), int(relative) == 1, int(direction))
         return True
     if item.command != M.MAV_CMD_NAV_WAYPOINT:
         return False

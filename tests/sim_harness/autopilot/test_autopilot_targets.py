@@ -156,3 +156,26 @@ def test_change_speed_holds_until_the_controller_restarts_and_leaves_the_paramet
         assert gcs.set_mode(int(Mode.GUIDED)).result == M.MAV_RESULT_ACCEPTED
         _local(gcs, POS, -12.0, 0.0, 2.0)
         assert abs(_top_speed_m_s(sim, gcs, 20.0) - wpnav_m_s) < 0.1
+
+
+def test_condition_yaw_relative_turns_from_the_held_heading_and_its_direction_counts():
+    """GCS_MAVLINK_Sub::handle_MAV_CMD_CONDITION_YAW -> ModeAuto::set_auto_yaw_look_at_heading:
+    a relative angle is taken from the attitude target's yaw and negated for direction < 0
+    (param3); an absolute one is the heading itself."""
+    with running_vehicle(FlatSeabed(30.0), config=vehicle_config(start_depth_m=2.0)) as (sim, gcs):
+        _guided(gcs)
+        gcs.run_for(2.0)
+        yaw0 = sim.truth().yaw_rad
+
+        def heading_error_rad(expected_rad: float) -> float:
+            return abs(math.remainder(sim.truth().yaw_rad - expected_rad, 2 * math.pi))
+
+        assert gcs.command(M.MAV_CMD_CONDITION_YAW, 90.0, 0, -1, 1).result == M.MAV_RESULT_ACCEPTED
+        gcs.run_for(15.0)
+        assert heading_error_rad(yaw0 - math.radians(90.0)) < 0.05
+        assert gcs.command(M.MAV_CMD_CONDITION_YAW, 30.0, 0, 1, 1).result == M.MAV_RESULT_ACCEPTED
+        gcs.run_for(10.0)
+        assert heading_error_rad(yaw0 - math.radians(60.0)) < 0.05
+        assert gcs.command(M.MAV_CMD_CONDITION_YAW, 45.0, 0, -1, 0).result == M.MAV_RESULT_ACCEPTED  # absolute
+        gcs.run_for(15.0)
+        assert heading_error_rad(math.radians(45.0)) < 0.05
