@@ -11,8 +11,9 @@
   and the echo carries index -1.
 - SET_MODE (the message): the mode change of DO_SET_MODE, with no reply in 4.5
   (``GCS_MAVLINK::handle_set_mode``).
-- GIMBAL_MANAGER_SET_PITCHYAW and MOUNT_CONTROL are dropped without a mount or for a
-  gimbal device id other than 0 or 1 (``AP_Mount::handle_gimbal_manager_set_pitchyaw``).
+- GIMBAL_MANAGER_SET_PITCHYAW and MOUNT_CONTROL are dropped without a mount, the former
+  also for a gimbal device id other than 0 or 1 (``AP_Mount::handle_gimbal_manager_set_pitchyaw``,
+  ``handle_mount_control``).
 - REQUEST_DATA_STREAM sets the SRn_* rates; SET_GPS_GLOBAL_ORIGIN sets the EKF origin
   once (and is answered with GPS_GLOBAL_ORIGIN); FILE_TRANSFER_PROTOCOL gets a NAK
   (:mod:`~sim_harness.autopilot.ftp`).
