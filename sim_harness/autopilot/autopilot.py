@@ -106,7 +106,7 @@ class Autopilot:
                                        lambda: self.runner.nav_index, self.guided_request)
         self.runner = MissionRunner(self.mission, self.targets, MissionHooks(
             ned_of=lambda lat, lon: self.navigation.ned_of(lat * 1e-7, lon * 1e-7),
-            terrain_available=lambda: self.rangefinder.enabled and int(self.params["WPNAV_RFND_USE"]) != 0,
+            terrain_available=self._terrain_available,
             on_terrain_unavailable=self.failsafes.terrain_event,
             do_command=self._do_command, gimbal_pitchyaw=lambda item: self.mount.mission_pitchyaw(*item.payload[:5]),
             start_leg=self._start_leg, announce_current=lambda: self.queue_message(M.MAVLINK_MSG_ID_MISSION_CURRENT),
@@ -234,11 +234,15 @@ class Autopilot:
         if speed_m_s >= 0.2:
             self.targets.speed_m_s = speed_m_s
 
+    def _terrain_available(self) -> bool:
+        """Terrain altitudes from the rangefinder: fitted and used by the waypoint controller."""
+        return self.rangefinder.enabled and int(self.params["WPNAV_RFND_USE"]) != 0
+
     def guided_request(self, item: StoredItem) -> bool:
         """A MISSION_ITEM with current 2: :func:`~sim_harness.autopilot.guided_request.do_guided`."""
         return self.readings is not None and do_guided(
             item, in_guided=self.mode == Mode.GUIDED, nav=self.navigation,
-            terrain_available=self.rangefinder.enabled and int(self.params["WPNAV_RFND_USE"]) != 0,
+            terrain_available=self._terrain_available(),
             start_leg=self._start_leg,
             set_yaw_target=lambda deg, rel, way: self.set_yaw_target(deg, relative=rel, direction=way))
 

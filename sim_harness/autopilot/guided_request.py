@@ -46,7 +46,7 @@ def do_guided(item: StoredItem, *, in_guided: bool, nav: Navigation, terrain_ava
     if item.command != M.MAV_CMD_NAV_WAYPOINT:
         return False
     ne = nav.ned_of(item.lat_e7 * 1e-7, item.lon_e7 * 1e-7)
-    if ne is None or nav.origin is None:
+    if ne is None:
         return False
     alt_m = item.alt_cm / 100.0
     if item.terrain_alt:
@@ -54,11 +54,8 @@ def do_guided(item: StoredItem, *, in_guided: bool, nav: Navigation, terrain_ava
             return False
         start_leg(ne[0], ne[1], None, alt_m)
         return True
-    if item.relative_alt:
-        if nav.home is None:
-            return False
-        up_m = alt_m + nav.home.alt_m - nav.origin.alt_m
-    else:
-        up_m = alt_m - nav.origin.alt_m
+    up_m = nav.up_from_origin_m(alt_m, above_home=item.relative_alt)
+    if up_m is None:
+        return False
     start_leg(ne[0], ne[1], -up_m, None)
     return True

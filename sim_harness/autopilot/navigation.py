@@ -97,6 +97,18 @@ class Navigation:
             return None
         return latlon_to_ned(lat_deg, lon_deg, self.origin.lat_deg, self.origin.lon_deg)
 
+    def up_from_origin_m(self, alt_m: float, *, above_home: bool) -> float | None:
+        """Height above the EKF origin of an altitude above sea level or above home
+        (``Location::get_alt_cm(ABOVE_ORIGIN)``); None without an origin, or without a home
+        for one above home."""
+        if self.origin is None:
+            return None
+        if not above_home:
+            return alt_m - self.origin.alt_m
+        if self.home is None:
+            return None
+        return alt_m + self.home.alt_m - self.origin.alt_m
+
     def home_depth_offset_m(self) -> float:
         """Depth of home below the EKF origin's altitude (0: both at the surface)."""
         if self.origin is None or self.home is None:

@@ -121,14 +121,11 @@ def apply_global_int(msg: mavlink.MAVLink_message, tg: Targets, ctx: TargetConte
         ne = nav.ned_of(lat, lon)
         if ne is None or nav.origin is None:
             return False  # no EKF origin: get_vector_from_origin_NEU fails
-        if frame in ABSOLUTE_FRAMES:
-            up_m = float(msg.alt) - nav.origin.alt_m
-        elif frame in RELATIVE_FRAMES:
-            if nav.home is None:
-                return False
-            up_m = float(msg.alt) + nav.home.alt_m - nav.origin.alt_m
-        else:
+        if frame not in ABSOLUTE_FRAMES and frame not in RELATIVE_FRAMES:
             return False  # terrain frames (no terrain database on a sub) and anything else
+        up_m = nav.up_from_origin_m(float(msg.alt), above_home=frame in RELATIVE_FRAMES)
+        if up_m is None:
+            return False
         pos = (ne[0], ne[1], -up_m)
     if not mask & VEL_IGNORE:
         vel = (float(msg.vx), float(msg.vy), float(msg.vz))
