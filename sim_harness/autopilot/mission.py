@@ -35,7 +35,9 @@ from collections.abc import Callable
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim_harness.autopilot.mission_storage import (
+    LOCATION_COMMANDS,
     StoredItem,
+    _c_int,
     download_fields,
     float_item_xy,
     home_item,
@@ -134,7 +136,12 @@ class MissionProtocol:
         # ArduSub 4.5 GCS_Common.cpp GCS_MAVLINK::handle_mission_item: the float form is
         # converted first; current 2 and 3 are requests, not parts of an upload.
         as_int = msg.get_type() == "MISSION_ITEM_INT"
-        x, y = (int(msg.x), int(msg.y)) if as_int else float_item_xy(float(msg.x), float(msg.y))
+        if as_int:
+            x, y = int(msg.x), int(msg.y)
+        elif int(msg.command) in LOCATION_COMMANDS:  # convert_MISSION_ITEM_to_MISSION_ITEM_INT
+            x, y = float_item_xy(float(msg.x), float(msg.y))
+        else:  # x and y that are no place pass straight through (a C float-to-int32)
+            x, y = (_c_int(float(msg.x), -(2**31), 2**31 - 1), _c_int(float(msg.y), -(2**31), 2**31 - 1))
         if int(msg.current) in (2, 3):
             return [self._request_item(msg, x, y, peer)]
         if not as_int and not self._warned_float:  # MissionItemProtocol::send_mission_item_warning
@@ -150,6 +157,12 @@ class MissionProtocol:
         item, result = store_item(int(msg.command), int(msg.frame),
                                   (float(msg.param1), float(msg.param2), float(msg.param3), float(msg.param4)),
                                   x, y, float(msg.z))
+        if item is not None and item.command == mavlink.MAV_CMD_DO_JUMP:
+            # MissionItemProtocol_Waypoints::append_item / replace_item: a jump to item 0, or
+            # beyond both the mission stored and the upload's last item, is an error.
+            target = int(item.payload[0])
+            if target == 0 or (target >= len(self.items) and target > self._upload_count - 1):
+                item, result = None, int(mavlink.MAV_MISSION_ERROR)
         if item is None:
             self._receiving = False
             return [self._ack(peer, result)]
@@ -190,8 +203,10 @@ class MissionProtocol:
             return mavlink.MAVLink_mission_item_int_message(
                 peer[0], peer[1], seq, f.frame, item.command, current, 1, *f.params, f.x, f.y, f.z,
                 mavlink.MAV_MISSION_TYPE_MISSION)
+        # convert_MISSION_ITEM_INT_to_MISSION_ITEM: degrees for a place, x and y as they are else
+        x, y = (f.x * 1e-7, f.y * 1e-7) if item.has_location else (float(f.x), float(f.y))
         return mavlink.MAVLink_mission_item_message(
-            peer[0], peer[1], seq, f.frame, item.command, current, 1, *f.params, f.x * 1e-7, f.y * 1e-7, f.z,
+            peer[0], peer[1], seq, f.frame, item.command, current, 1, *f.params, x, y, f.z,
             mavlink.MAV_MISSION_TYPE_MISSION)
 
     def update(self, now_s: float) -> list[mavlink.MAVLink_message]:

@@ -128,9 +128,15 @@ def test_auto_runs_only_the_alt_frames_sub_accepts_and_skips_ineffective_do_item
         assert _upload(gcs, items) == M.MAV_MISSION_ACCEPTED
         assert gcs.arm().result == M.MAV_RESULT_ACCEPTED
         assert gcs.set_mode(int(Mode.AUTO)).result == M.MAV_RESULT_ACCEPTED
-        reached = gcs.wait_for("MISSION_ITEM_REACHED", 20.0)
-        assert reached is not None and reached.seq == 6
+        assert gcs.wait_for("MISSION_ITEM_REACHED", 20.0, lambda m: m.seq == 6) is not None
+        # Sub's verify_command_callback reports the DO items Sub verifies (3, 4) as well as
+        # the waypoint; AP_Mission's own DO_GIMBAL_MANAGER_PITCHYAW (5) is not reported.
+        assert [m.seq for m in gcs.log if m.get_type() == "MISSION_ITEM_REACHED"] == [3, 4, 6]
         texts = [m.text for m in gcs.log if m.get_type() == "STATUSTEXT"]
+        # AP_Mission::start_command announces every command it starts, refused ones too.
+        assert [t for t in texts if t.startswith("Mission: ")] == [
+            "Mission: 1 WP", "Mission: 2 WP", "Mission: 3 ChangeSpeed", "Mission: 6 WP", "Mission: 4 MountControl",
+            "Mission: 5 GimbalPitchYaw"]
         assert texts.count("Bad alt frame") == 2  # item 1 and DO_MOUNT_CONTROL
         assert texts.count("Alt above home must be negative") == 2  # item 2 and DO_CHANGE_SPEED
         assert "Reached command #6" in texts

@@ -110,3 +110,38 @@ def test_wp_load_of_the_products_mission_round_trips(gcs: MAVProxy, plan_dir: Pa
         assert a[8:10] == pytest.approx(b[8:10], abs=1.5e-6)  # MAVProxy writes %f (1e-6 degrees)
         assert a[10] == pytest.approx(b[10], abs=1e-6)  # whole centimetres come back whole
         assert a[11] == b[11]
+
+
+def test_wp_load_of_a_hand_written_file_with_jumps_servos_and_cameras(gcs: MAVProxy, workdir: Path,
+                                                                      origin: tuple[float, float]) -> None:
+    """A Mission Planner file as users write them (a DO_JUMP, a servo for the lights, a
+    camera trigger, a condition, a NAV_LAND): MAVProxy's ``wp load`` uploads it whole (the
+    vehicle stores every one of these, AP_Mission ``mavlink_int_to_mission_cmd``) and ``wp
+    save`` reads back each field in its C type: the PWM and channel as integers, the jump's
+    repeat count as int16, the command without a location in frame 0, NAV_LAND's param4 as
+    its sign."""
+    lat, lon = origin
+    rows = [
+        (0, 1, 0, 16, 0, 0, 0, 0, lat, lon, 0.0),
+        (1, 0, 3, 16, 0, 0, 0, 0, lat + 1e-5, lon, -2.0),
+        (2, 0, 2, 183, 9, 1900.6, 0, 0, 0, 0, 0),  # DO_SET_SERVO: lights on
+        (3, 0, 2, 203, 1, 0, -1, 0, 1, 0, 0),  # DO_DIGICAM_CONTROL, shoot (x = 1)
+        (4, 0, 3, 16, 0, 0, 0, 0, lat + 2e-5, lon, -2.0),
+        (5, 0, 2, 177, 1.7, 3, 0, 0, 0, 0, 0),  # DO_JUMP to 1, 3 times
+        (6, 0, 2, 114, 2.5, 0, 0, 0, 0, 0, 0),  # CONDITION_DISTANCE 2.5 m
+        (7, 0, 3, 21, 0, 0, 0, -1, lat + 2e-5, lon, 0.0),  # NAV_LAND (surface) there
+    ]
+    src = workdir / "hand.waypoints"
+    src.write_text("QGC WPL 110\n" + "".join(
+        "\t".join(str(v) for v in (*r[:8], f"{r[8]:.8f}", f"{r[9]:.8f}", r[10], 1)) + "\n" for r in rows))
+    assert gcs.wp_load(src) == len(rows)
+    back = workdir / "hand_back.waypoints"
+    assert gcs.wp_save(back) == len(rows)
+    got = read_waypoints(back)
+    commands_and_params = [(int(g[3]), *g[4:8]) for g in got[1:]]
+    assert commands_and_params == [
+        (16, 0.0, 0.0, 0.0, 0.0), (183, 9.0, 1900.0, 0.0, 0.0), (203, 1.0, 0.0, -1.0, 0.0),
+        (16, 0.0, 0.0, 0.0, 0.0), (177, 1.0, 3.0, 0.0, 0.0), (114, 2.5, 0.0, 0.0, 0.0), (21, 0.0, 0.0, 0.0, -1.0)]
+    assert [int(g[2]) for g in got[1:]] == [3, 0, 0, 3, 0, 0, 3]
+    assert got[3][8] == 1.0  # the camera's shooting command kept in x
+    assert got[7][8:10] == pytest.approx((lat + 2e-5, lon), abs=1.5e-6)
