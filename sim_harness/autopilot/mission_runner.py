@@ -100,6 +100,7 @@ TYPE_NAMES = {
 }
 INDEX_NONE = 65535  # AP_MISSION_CMD_INDEX_NONE
 MAX_JUMPS_PER_SEARCH = 64
+MAX_SEARCH_LOOPS = 255  # advance_current_nav_cmd's guard against endless loops
 
 
 @dataclass(frozen=True)
@@ -212,11 +213,10 @@ class MissionRunner:
         self._reached_at_s, self._surfacing = None, None
         items = self._protocol.items
         search = max(index, 1)
-        while True:
+        for _ in range(MAX_SEARCH_LOOPS):
             found = self._next_cmd(search, counting=True)
             if found is None:
-                self._end()
-                return
+                break
             item = items[found]
             if item.command in NAV_COMMANDS:
                 self.index = found
@@ -229,6 +229,7 @@ class MissionRunner:
                 self._do_index, self._do_loaded = found, True
                 self._start_command(found, r)
             search = found + 1
+        self._end()  # no nav item started (or 255 tries: a loop of refused items): complete
 
     def _end(self) -> None:
         self.index = len(self._protocol.items) - 1

@@ -202,3 +202,17 @@ def test_float_items_keep_x_and_y_that_are_no_place():
         gcs.mav.mission_request_send(1, 1, 1, 0)
         wp = gcs.wait_for("MISSION_ITEM", 1.0, lambda m: m.seq == 1)
         assert abs(wp.x - lat) < 2e-6  # a place: degrees
+
+
+def test_a_jump_forever_over_refused_items_ends_the_mission():
+    """advance_current_nav_cmd gives up after 255 tries: a DO_JUMP repeating forever over a
+    waypoint Sub refuses (absolute frame) completes the mission instead of hanging."""
+    items = [_item(0, frame=M.MAV_FRAME_GLOBAL, z=0.0), _item(1, frame=M.MAV_FRAME_GLOBAL_INT, z=-3.0),
+             _do(2, M.MAV_CMD_DO_JUMP, (1.0, -1.0, 0, 0))]
+    with running_vehicle(config=vehicle_config(start_depth_m=2.0)) as (sim, gcs):
+        assert _upload(gcs, items) == M.MAV_MISSION_ACCEPTED
+        assert gcs.arm().result == M.MAV_RESULT_ACCEPTED
+        gcs.set_mode(int(Mode.AUTO))  # its ACK may drown in the 510 texts of the search
+        gcs.run_for(1.0)
+        assert sim.autopilot.runner.state == M.MISSION_STATE_COMPLETE
+        assert sim.truth().mode == Mode.AUTO  # the mission's end: loiter in AUTO
