@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import threading
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
@@ -103,10 +104,39 @@ def test_lost_ack_is_retried_and_succeeds(peer, client):
 
 def test_in_progress_then_accepted(peer, client):
     peer.command_script[mavlink2.MAV_CMD_DO_SET_MISSION_CURRENT] = [mavlink2.MAV_RESULT_IN_PROGRESS]
-    # the peer sends IN_PROGRESS once; our retry after the wait then gets ACCEPTED
+    # the peer sends IN_PROGRESS once: not a success, so the client waits on, hears nothing
+    # more, and re-sends (confirmation 1); that retry gets ACCEPTED
     client.set_mission_current(3)
     sent = peer.commands(mavlink2.MAV_CMD_DO_SET_MISSION_CURRENT)
-    assert sent[-1].param1 == 3.0
+    assert [m.confirmation for m in sent] == [0, 1]
+    assert [m.param1 for m in sent] == [3.0, 3.0]
+
+
+def test_in_progress_then_accepted_without_a_resend(peer, client):
+    """IN_PROGRESS extends the wait: the ACCEPTED that follows it (inside the command
+    timeout) completes the command, with no re-send, and not before it arrives."""
+    cmd = mavlink2.MAV_CMD_DO_SET_MISSION_CURRENT
+    peer.command_script[cmd] = [None]  # the scripted answer stays silent; this hook acks
+    accepted = threading.Event()
+
+    def ack(msg, result: int) -> None:
+        if result == mavlink2.MAV_RESULT_ACCEPTED:
+            accepted.set()
+        peer.send(mavlink2.MAVLink_command_ack_message(cmd, result, 0, 0, msg.get_srcSystem(),
+                                                       msg.get_srcComponent()))
+
+    def on_command(msg) -> None:
+        if msg.command == cmd:
+            ack(msg, mavlink2.MAV_RESULT_IN_PROGRESS)
+            timer = threading.Timer(0.3, ack, args=(msg, mavlink2.MAV_RESULT_ACCEPTED))
+            timer.daemon = True
+            timer.start()
+
+    peer.on_message["COMMAND_LONG"] = on_command
+    client.set_mission_current(4)
+    assert accepted.is_set()  # it returned on the ACCEPTED, not on IN_PROGRESS
+    sent = peer.commands(cmd)
+    assert [(m.confirmation, m.param1) for m in sent] == [(0, 4.0)]
 
 
 @pytest.mark.parametrize("mode", [SubMode.SURFTRAK, SubMode.ALT_HOLD, SubMode.GUIDED])
@@ -269,7 +299,11 @@ def test_mount_tilt_is_sent_once_and_never_resent_on_a_mode_change(peer, client_
     else:
         assert first.param2 == 0.0  # pitch and yaw both given (4.5 refuses a NaN yaw)
     client.set_mode(SubMode.ALT_HOLD)
+    assert client.mode == SubMode.ALT_HOLD
     peer.custom_mode = SubMode.MANUAL  # a mode change made elsewhere (pilot, failsafe)
+    # counted only once the client has heard the change (the peer's next heartbeat), and
+    # after a barrier, so anything the client sent on hearing it has reached the peer
+    assert wait_real(lambda: client.mode == SubMode.MANUAL)
     _sync(peer, client)
     assert len(peer.commands(command)) == 1
 

@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import tempfile
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -110,17 +112,66 @@ def test_damaged_navigation_csv(bare_frames: tuple[list[Path], str], data: st.Da
     _nav_case(frames, damaged.encode("utf-8") if data.draw(st.booleans()) else damaged.encode("latin-1"))
 
 
-CONNECTION_TEXT = st.text(max_size=30) | st.builds(
-    lambda kind, host, port: f"{kind}:{host}:{port}",
-    st.sampled_from(["udpin", "udpout", "udp", "tcp", "tcpin", "serial", "foo", ""]),
-    st.sampled_from(["0.0.0.0", "127.0.0.1", "localhost", "192.168.2.2", "300.1.1.1", "", "a b", "-x", "host.local"]),
-    st.sampled_from(["14550", "0", "65536", "-1", "", "abc", "14550.5", "99999999999"]),
-) | st.sampled_from(["/dev/ttyACM0", "/dev/ttyUSB0,115200", "COM3", "COM3,57600", "/dev/ttyACM0,abc", "foo:bar"])
+#: Parts of KIND:HOST:PORT strings, each with whether pymavlink's form allows it (a
+#: network kind it opens; an IPv4 address of octets <= 255 or a DNS name; a port 1..65535).
+KINDS = {"udpin": True, "udpout": True, "udp": True, "tcp": True, "tcpin": True, "serial": False, "foo": False,
+         "": False, "UDP": False}
+HOSTS = {"0.0.0.0": True, "127.0.0.1": True, "localhost": True, "192.168.2.2": True, "host.local": True,
+         "255.255.255.255": True, "300.1.1.1": False, "1.2.3.256": False, "": False, "a b": False, "-x": False,
+         "host_1": False}
+PORTS = {"14550": True, "1": True, "5760": True, "65535": True, "0": False, "65536": False, "-1": False, "": False,
+         "abc": False, "14550.5": False, "99999999999": False, " 1": False}
+#: Serial devices, and whether each is one (a /dev path or a COM port, optionally ",BAUD").
+SERIALS = {"/dev/ttyACM0": True, "/dev/ttyUSB0,115200": True, "/dev/serial/by-id/usb-ArduPilot_0,57600": True,
+           "COM3": True, "COM3,57600": True, "/dev/ttyACM0,abc": False, "/dev/ttyACM0,": False, "COM": False,
+           "foo:bar": False, "ttyACM0": False}
+
+NETWORK_TEXT = st.builds(
+    lambda kind, host, port: (f"{kind}:{host}:{port}", KINDS[kind] and HOSTS[host] and PORTS[port],
+                              f"{kind}:{host}:{port}"),
+    st.sampled_from(sorted(KINDS)), st.sampled_from(sorted(HOSTS)), st.sampled_from(sorted(PORTS)))
+SERIAL_TEXT = st.sampled_from(sorted(SERIALS)).map(lambda text: (text, SERIALS[text], text))
+#: (text, whether it is a MAVLink connection, the value it is parsed to), worked out apart
+#: from the parser; surrounding blanks are ignored.
+CONNECTION_CASES = st.tuples(NETWORK_TEXT | SERIAL_TEXT, st.sampled_from(["", " ", "\t"])).map(
+    lambda case: (case[1] + case[0][0] + case[1], *case[0][1:]))
+CONNECTION_TEXT = st.text(max_size=30) | NETWORK_TEXT.map(lambda case: case[0]) | SERIAL_TEXT.map(
+    lambda case: case[0])
+
+
+@pytest.mark.parametrize(("text", "value"), [("udpout:127.0.0.1:14550", "udpout:127.0.0.1:14550"),
+                                             ("/dev/ttyACM0,115200", "/dev/ttyACM0,115200"),
+                                             (" tcpin:0.0.0.0:5760 ", "tcpin:0.0.0.0:5760")])
+def test_connection_strings_accepted(text: str, value: str) -> None:
+    assert connection_string(text) == value
+
+
+@pytest.mark.parametrize(("text", "reason"), [
+    ("tcp:300.1.1.1:5760", "'300.1.1.1' is not an IPv4 address"),
+    ("udpin:0.0.0.0:65536", "port must be 1..65535, got '65536'"),
+    ("foo:host:1", "is not a MAVLink connection"),
+    ("/dev/ttyACM0,abc", "is not a MAVLink connection"),
+])
+def test_connection_strings_refused(text: str, reason: str) -> None:
+    with pytest.raises(argparse.ArgumentTypeError, match=re.escape(reason)):
+        connection_string(text)
 
 
 @settings(max_examples=200, deadline=None)
+@given(case=CONNECTION_CASES)
+def test_connection_strings_are_parsed_or_refused(case: tuple[str, bool, str]) -> None:
+    text, valid, expected = case
+    if valid:
+        assert connection_string(text) == expected
+    else:
+        with pytest.raises(argparse.ArgumentTypeError) as info:
+            connection_string(text)
+        assert repr(text) in str(info.value)
+
+
+@settings(max_examples=100, deadline=None)
 @given(text=CONNECTION_TEXT)
-def test_connection_strings_are_parsed_or_refused(text: str) -> None:
+def test_any_text_is_parsed_or_refused(text: str) -> None:
     try:
         value = connection_string(text)
     except argparse.ArgumentTypeError as exc:
@@ -130,48 +181,110 @@ def test_connection_strings_are_parsed_or_refused(text: str) -> None:
 
 
 @FAST
-@given(text=CONNECTION_TEXT)
-def test_run_refuses_bad_connections_naming_the_option(text: str) -> None:
+@given(case=CONNECTION_CASES)
+def test_run_refuses_bad_connections_naming_the_option(case: tuple[str, bool, str]) -> None:
+    text, valid, _ = case
     with tempfile.TemporaryDirectory() as tmp:
         plan = Path(tmp) / "no-plan"
         code, _, err = run_cli(["run", "--connect", text, "--plan", str(plan), "--out", str(Path(tmp) / "run")])
         assert code == 2  # a bad connection, or (a good one) the missing plan: nothing is flown
-        assert_contract(code, err, ["--connect", str(plan)])
+        if valid:  # the connection is taken: what stops the run is the plan
+            assert_contract(code, err, [str(plan)])
+            assert "--connect" not in err, err
+        else:
+            assert_contract(code, err, ["--connect"])
+            assert "error: argument --connect: " in err, err
 
 
-NUMBER_TEXT = st.sampled_from(["nan", "inf", "-inf", "1e999", "-1e999", "abc", "", "0", "-0.1", "-5", "1e308",
-                               "0x10", "1,5", "  7 ", "1e-320"]) | st.floats().map(repr) | st.integers().map(str)
+EXAMPLE_AREA = str(resources.files("planner").joinpath("data", "example_area.geojson"))
 
-#: (argv before the value, option, argv after): a missing file keeps a valid value cheap.
-NUMERIC_OPTIONS = (
-    (["plan", "missing.geojson", "--out", "OUT"], "--lane-heading-deg", []),
-    (["heights", "missing.npz", "missing2.npz"], "--delta-h", []),
-    (["heights", "missing.npz", "missing2.npz"], "--altitude", []),
-    (["mosaic", "missing.npz", "--out", "OUT", "--origin", "43,5"], "--resolution-m", []),
-    (["mosaic", "missing.npz", "--out", "OUT"], "--origin", []),
-    (["plan", "missing.geojson", "--out", "OUT"], "--origin", []),
-    (["report", "missing-run"], "--match-radius-m", []),
-    (["report", "missing-run"], "--dpi", []),
-    (["render", "missing.toml"], "--altitude", []),
-    (["render", "missing.toml", "--altitude", "0.5"], "--tilt-deg", []),
-    (["render", "missing.toml", "--altitude", "0.5"], "--samples", []),
-    (["render", "missing.toml", "--altitude", "0.5"], "--noise-floor-db", []),
-    (["sim-vehicle", "--scene", "missing.toml"], "--speedup", []),
-    (["sim-vehicle", "--scene", "missing.toml"], "--seabed-depth-m", []),
-    (["sim-vehicle", "--scene", "missing.toml"], "--start-depth-m", []),
-    (["convert", "missing.aris", "OUT.npz"], "--frames", []),
+
+@pytest.fixture(scope="module")
+def real_inputs(bare_frames: tuple[list[Path], str], tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+    """Inputs every command reads without complaint: the shipped example area, the two
+    rendered tank frames (with their pose) beside ``bare_frames``, and a synthetic run folder."""
+    from tests.planner.report.report_run import write_run
+
+    folder = bare_frames[0][0].parent
+    posed = sorted(p for p in folder.glob("*.npz") if not p.name.endswith(".truth.npz")
+                   and not p.name.startswith("bare"))
+    assert len(posed) == 2
+    run = tmp_path_factory.mktemp("report_run") / "run"
+    write_run(run, np.random.default_rng(20261123))
+    return {"AREA": EXAMPLE_AREA, "FRAME0": str(posed[0]), "FRAME1": str(posed[1]), "RUN": str(run),
+            "BARE": str(bare_frames[0][0])}
+
+
+#: Valid inputs for each command (OUT: a fresh folder; sim-vehicle stops by itself).
+_PLAN = ["plan", "AREA", "--out", "OUT", "--no-plot"]
+_HEIGHTS = ["heights", "FRAME0", "FRAME1"]
+_MOSAIC = ["mosaic", "FRAME0", "FRAME1", "--out", "OUT", "--no-registration"]
+_REPORT = ["report", "RUN"]
+_RENDER = ["render", "paper-tank", "--samples", "64", "--no-preview", "--out", "OUT"]
+_SIM = ["sim-vehicle", "--scene", "paper-tank", "--listen", "udp:127.0.0.1:14987", "--duration-s", "0.5"]
+
+#: (valid argv, option, bad value, what the error says is wrong): each value is refused
+#: at the option with the reason of planner/commands/args.py.
+BAD_NUMBERS = (
+    (_PLAN, "--lane-heading-deg", "nan", "must be a finite number, got 'nan'"),
+    (_PLAN, "--lane-heading-deg", "1e999", "must be a finite number, got '1e999'"),
+    (_PLAN, "--lane-heading-deg", "abc", "must be a number, got 'abc'"),
+    (_PLAN, "--lane-heading-deg", "0x10", "must be a number, got '0x10'"),
+    (_PLAN, "--lane-heading-deg", "400", "must be <= 360 deg, got 400"),
+    (_PLAN, "--lane-heading-deg", "-361", "must be >= -360 deg, got -361"),
+    (_PLAN, "--origin", "91,5", "latitude must be within -90..90 deg"),
+    (_PLAN, "--origin", "43", "must be LAT,LON in degrees"),
+    ([*_HEIGHTS], "--delta-h", "inf", "must be a finite number, got 'inf'"),
+    ([*_HEIGHTS], "--delta-h", "2000", "must be <= 1000 m, got 2000"),
+    ([*_HEIGHTS], "--delta-h", "-1e308", "must be >= -1000 m, got -1e308"),
+    ([*_HEIGHTS], "--altitude", "0", "must be > 0 m, got 0"),
+    ([*_HEIGHTS], "--altitude", "-0.1", "must be > 0 m, got -0.1"),
+    ([*_HEIGHTS], "--altitude", "1001", "must be <= 1000 m, got 1001"),
+    ([*_MOSAIC, "--origin", "43.3,5.37"], "--resolution-m", "0", "must be >= 0.001 m, got 0"),
+    ([*_MOSAIC, "--origin", "43.3,5.37"], "--resolution-m", "2", "must be <= 1 m, got 2"),
+    ([*_MOSAIC, "--origin", "43.3,5.37"], "--resolution-m", "-inf", "must be a finite number, got '-inf'"),
+    (_MOSAIC, "--origin", "43,181", "longitude must be within -180..180 deg"),
+    (_REPORT, "--match-radius-m", "0", "must be > 0 m, got 0"),
+    (_REPORT, "--match-radius-m", "nan", "must be a finite number, got 'nan'"),
+    (_REPORT, "--dpi", "1.5", "must be a whole number, got '1.5'"),
+    (_REPORT, "--dpi", "10", "must be >= 20, got 10"),
+    (_REPORT, "--dpi", "601", "must be <= 600, got 601"),
+    (_RENDER, "--altitude", "0", "must be > 0, got 0"),
+    (_RENDER, "--altitude", "nan", "must be a finite number, got 'nan'"),
+    ([*_RENDER, "--altitude", "0.5"], "--tilt-deg", "91", "must be <= 90 deg, got 91"),
+    ([*_RENDER, "--altitude", "0.5"], "--tilt-deg", "-1e999", "must be a finite number, got '-1e999'"),
+    ([*_RENDER, "--altitude", "0.5"], "--samples", "1", "must be >= 2, got 1"),
+    ([*_RENDER, "--altitude", "0.5"], "--noise-floor-db", "inf", "must be a finite number, got 'inf'"),
+    (_SIM, "--speedup", "0", "must be > 0, got 0"),
+    (_SIM, "--speedup", "nan", "must be a finite number, got 'nan'"),
+    (_SIM, "--seabed-depth-m", "12000", "must be <= 11000 m, got 12000"),
+    (_SIM, "--seabed-depth-m", "0", "must be > 0 m, got 0"),
+    (_SIM, "--start-depth-m", "-1", "must be >= 0, got -1"),
 )
 
 
-@settings(max_examples=60, deadline=None)
-@given(case=st.sampled_from(NUMERIC_OPTIONS), value=NUMBER_TEXT)
-def test_numbers_on_the_command_line(case: tuple[list[str], str, list[str]], value: str) -> None:
-    before, option, after = case
-    with tempfile.TemporaryDirectory() as tmp:
-        argv = [a.replace("OUT", str(Path(tmp) / "out")) for a in before]
-        code, _, err = run_cli([*argv, f"{option}={value}", *after])
-        assert code == 2  # a bad value, or (a good one) the missing file
-        assert_contract(code, err, [option, "missing"])
+@pytest.mark.parametrize(("before", "option", "value", "reason"), BAD_NUMBERS,
+                         ids=[f"{c[0][0]}{c[1]}={c[2]}" for c in BAD_NUMBERS])
+def test_numbers_on_the_command_line(real_inputs: dict[str, str], tmp_path: Path, before: list[str],
+                                     option: str, value: str, reason: str) -> None:
+    """Every other input is real and valid, so the bad number alone is refused: exit 2,
+    one line naming the option and saying what is wrong with the value."""
+    argv = [real_inputs.get(a, a).replace("OUT", str(tmp_path / "out")) for a in before]
+    code, _, err = run_cli([*argv, f"{option}={value}"])
+    assert_contract(code, err, [option])
+    assert code == 2
+    assert f"error: argument {option}: {reason}" in err, err
+
+
+@pytest.mark.parametrize(("frames", "reason"), [("a:b", "'a' is not an integer"), ("0:10:0", "step must not be zero"),
+                                                ("1", "expected START:STOP or START:STOP:STEP")])
+def test_convert_refuses_a_bad_frame_slice(real_inputs: dict[str, str], tmp_path: Path, frames: str,
+                                           reason: str) -> None:
+    code, _, err = run_cli(["convert", real_inputs["BARE"], str(tmp_path / "out.npz"), f"--frames={frames}"])
+    assert_contract(code, err, ["--frames"])
+    assert code == 2
+    assert f"--frames {frames!r}: {reason}" in err, err
+    assert not (tmp_path / "out.npz").exists()
 
 
 @pytest.mark.soak

@@ -12,6 +12,7 @@ import rasterio
 
 from perception.sonar_io.npz import load_frames, save_frame
 from planner.cli import main
+from planner.commands.nav_csv import NavTable
 
 
 @pytest.fixture(scope="module")
@@ -34,23 +35,60 @@ def test_map_from_frames_with_pose(tank_frames, tmp_path):
     assert (tmp_path / "mosaic_heights.png").stat().st_size > 10_000
 
 
+def _targets_ne(folder: Path) -> list[tuple[float, float, float | None]]:
+    """(north, east, height) of each target of a map folder, sorted."""
+    doc = json.loads((folder / "targets.geojson").read_text())
+    return sorted((f["properties"]["north_m"], f["properties"]["east_m"], f["properties"]["height_m"])
+                  for f in doc["features"])
+
+
 def test_pose_from_a_nav_csv(tank_frames, tmp_path):
-    bare = []
+    # The frames moved 3 m north and 2 m east (so a sign or an offset of either shows),
+    # once with their pose in the file and once bare, with the pose in the CSV.
+    bare, posed = [], []
     rows = ["t_s,north_m,east_m,heading_deg,altitude_m,tilt_deg"]
     for k, path in enumerate(tank_frames):
-        frame = load_frames(path)[0]
+        frame = load_frames(path)[0].with_fields(timestamp_s=float(k))
+        frame = frame.with_fields(north_m=frame.north_m + 3.0, east_m=frame.east_m + 2.0)
         rows.append(f"{float(k)},{frame.north_m},{frame.east_m},{math.degrees(frame.heading_rad)},"
                     f"{frame.altitude_m},{math.degrees(frame.tilt_rad)}")
-        stripped = frame.with_fields(timestamp_s=float(k), north_m=math.nan, east_m=math.nan, heading_rad=math.nan,
+        posed.append(save_frame(tmp_path / f"posed{k}.npz", frame))
+        stripped = frame.with_fields(north_m=math.nan, east_m=math.nan, heading_rad=math.nan,
                                      altitude_m=math.nan, tilt_rad=math.nan)
         bare.append(save_frame(tmp_path / f"bare{k}.npz", stripped))
     nav = tmp_path / "nav.csv"
     nav.write_text("\n".join(rows) + "\n")
+    # Each bare frame gets the CSV row at its timestamp: the pose it was stripped of.
+    table = NavTable(nav)
+    for k, (b, p) in enumerate(zip(bare, posed, strict=True)):
+        applied, want = table.apply(load_frames(b)[0], f"bare{k}"), load_frames(p)[0]
+        assert (applied.north_m, applied.east_m) == pytest.approx((want.north_m, want.east_m), abs=1e-9)
+        assert applied.heading_rad == pytest.approx(want.heading_rad, abs=1e-9)
+        assert applied.altitude_m == pytest.approx(want.altitude_m, abs=1e-9)
+        assert applied.tilt_rad == pytest.approx(want.tilt_rad, abs=1e-9)
     origin = ["--origin", "43.3,5.37"]
     assert main(["mosaic", *map(str, bare), "--out", str(tmp_path / "a"), "--no-registration", *origin]) == 2
     assert main(["mosaic", *map(str, bare), "--nav", str(nav), "--out", str(tmp_path / "b"), *origin]) == 0
-    doc = json.loads((tmp_path / "b" / "targets.geojson").read_text())
-    assert sum(f["properties"]["height_m"] is not None for f in doc["features"]) == 5
+    assert main(["mosaic", *map(str, posed), "--out", str(tmp_path / "c"), *origin]) == 0
+    from_csv, from_frames = _targets_ne(tmp_path / "b"), _targets_ne(tmp_path / "c")
+    assert sum(h is not None for _, _, h in from_csv) == 5
+    assert len(from_csv) == len(from_frames)
+    for (n, e, h), (n0, e0, h0) in zip(from_csv, from_frames, strict=True):
+        assert (n, e) == pytest.approx((n0, e0), abs=1e-3)  # targets placed alike, within 1 mm
+        assert h == h0 or h == pytest.approx(h0, abs=1e-3)
+    # And where the tank's targets are, 3 m north and 2 m east of the tank's own frame.
+    tank = _targets_ne_from(tank_frames, tmp_path / "d")
+    for (n, e, _), (n0, e0, _) in zip(from_frames, tank, strict=True):
+        assert (n - n0, e - e0) == pytest.approx((3.0, 2.0), abs=1e-3)
+
+
+def _targets_ne_from(frames: list[Path], out: Path) -> list[tuple[float, float, float | None]]:
+    """Targets of a map made from ``frames`` (their own pose, timestamps 0, 1, ...)."""
+    out.mkdir()
+    again = [save_frame(out / f"f{k}.npz", load_frames(p)[0].with_fields(timestamp_s=float(k)))
+             for k, p in enumerate(frames)]
+    assert main(["mosaic", *map(str, again), "--out", str(out / "map"), "--origin", "43.3,5.37"]) == 0
+    return _targets_ne(out / "map")
 
 
 def test_bad_nav_is_named(tank_frames, tmp_path, capsys):

@@ -55,3 +55,15 @@ def test_a_bench_without_a_topside_may_arm_once_the_pilot_failsafe_has_latched()
     assert any("nobody can take over" in w for w in report.warnings)
     assert any("has latched" in n for n in report.notes)
     assert not judge(bench, topside_required=True).ok
+
+
+def test_with_the_pilot_failsafe_off_a_critical_status_is_another_failsafe():
+    """FS_PILOT_INPUT 0: the pilot-input failsafe never fires, so it cannot have latched;
+    a CRITICAL system status with no joystick is some other failsafe, and arming is refused."""
+    bench = replace(FIELD, topside_heartbeat=False, topside_joystick=False, system_status=MAV_STATE_CRITICAL,
+                    fs_pilot_input=0)
+    report = judge(bench, topside_required=False)
+    assert not report.ok
+    assert "reports a failsafe (HEARTBEAT system_status CRITICAL)" in report.refusal
+    assert not any("has latched" in n for n in report.notes)
+    assert report.lines()[0].startswith("REFUSED: ")

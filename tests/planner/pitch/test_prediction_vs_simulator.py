@@ -19,18 +19,21 @@ loop's own estimates (the rate and speed from the last 0.4 s, as
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from perception.navigation.history import NavSample
 from planner.pitch.config import PitchLoopConfig
+from planner.pitch.control import ShadowPitchLoop
 from planner.pitch.prediction import predict_pitch_rad
 from planner.pitch.types import PitchState
 from sim_harness.vehicle.dynamics import AttitudeDisturbance, RovParams, step_rk4
 
 DT_S = 0.02  # the simulator's physics step
 CONTROL_S = 0.2  # the executor's control period: the loop's step
-WINDOW_S = 0.4  # ShadowPitchLoop.motion_window_s
+WINDOW_S = 0.4  # ShadowPitchLoop.motion_window_s (checked against the loop below)
 SURVEY_SPEED_M_S = 0.25
 #: Surge thrust that holds the survey speed in the simulator's water, N; the speed loop's
 #: gain and its thrust limit either way (it brakes with reverse thrust, as the position
@@ -38,8 +41,8 @@ SURVEY_SPEED_M_S = 0.25
 CRUISE_N = 2.0
 SPEED_GAIN_N_PER_M_S = 40.0
 MAX_SURVEY_THRUST_N = 10.0
-#: ShadowPitchLoop.accel_lead_m_s: below the commanded speed the loop predicts this much more.
-ACCEL_LEAD_M_S = 0.35
+#: Altitude of the check, m (as in the envelope test): the margin in metres scales with it.
+ALTITUDE_M = 1.0
 
 DISTURBANCES = {
     "default waves": AttitudeDisturbance(),
@@ -96,6 +99,26 @@ def test_first_step_pitch_error_stays_in_the_loops_envelope(name: str) -> None:
     assert worst <= config.pitch_envelope_rad, (math.degrees(worst), math.degrees(config.pitch_envelope_rad))
 
 
+def _loop() -> ShadowPitchLoop:
+    """The executor's adapter with its default motion window and lead, no passes."""
+    settings = SimpleNamespace(site=SimpleNamespace(target_height_min_m=0.02, target_height_max_m=0.2),
+                               sonar=SimpleNamespace())
+    return ShadowPitchLoop(SimpleNamespace(passes=()), settings)  # type: ignore[arg-type]
+
+
+def _onboard(t: np.ndarray, north: np.ndarray, k: int) -> SimpleNamespace:
+    """On-board navigation at step ``k`` of a flight heading north: the newest sample and
+    the samples before it (positions at the physics step, as if reported every step)."""
+    def sample(i: int) -> NavSample:
+        return NavSample(float(t[i]), float(north[i]), 0.0, 0.0, 0.0, 0.0, 0.4)
+
+    def nav_at(time_s: float) -> NavSample | None:
+        i = int(round(time_s / DT_S))
+        return sample(i) if 0 <= i <= k else None
+
+    return SimpleNamespace(nav=sample(k), nav_at=nav_at)
+
+
 def test_along_track_advance_over_the_horizon() -> None:
     """The loop moves the shadows back at the measured speed, led toward the commanded one;
     the vehicle's dynamics accelerate and brake: through the stop and the restart the
@@ -104,6 +127,9 @@ def test_along_track_advance_over_the_horizon() -> None:
     lead band (``zone_lead_m``, which covers prediction errors) over the 2 s horizon of
     one leg."""
     horizon_s = 2.0
+    config = PitchLoopConfig(nominal_tilt_rad=0.4, dt_s=CONTROL_S, horizon_steps=10)
+    loop = _loop()
+    assert loop.motion_window_s == pytest.approx(WINDOW_S)
     command = _profile(60.0)
     t, _, north = _fly(AttitudeDisturbance(), command)
     lag = int(round(WINDOW_S / DT_S))
@@ -111,11 +137,18 @@ def test_along_track_advance_over_the_horizon() -> None:
     step = int(round(CONTROL_S / DT_S))
     worst = first = 0.0
     for k in range(lag, t.size - ahead, 5):
-        speed = max(0.0, (north[k] - north[k - lag]) / WINDOW_S)
         cmd = float(command[k])
-        speed = min(cmd, speed + ACCEL_LEAD_M_S) if speed < cmd else max(cmd, speed - ACCEL_LEAD_M_S)
+        speed, _ = loop._motion(_onboard(t, north, k), cmd)  # type: ignore[arg-type]
         first = max(first, abs(north[k] + speed * CONTROL_S - north[k + step]))
         # Over the horizon only while the leg's commanded speed holds (the executor gives
         # the loop the current leg's speed; a new leg is a new command).
         if np.all(command[k:k + ahead + 1] == cmd):
             worst = max(worst, abs(north[k] + speed * horizon_s - north[k + ahead]))
+    # The nearest held shadow: the near band's start (min_ground_range_over_altitude
+    # altitudes along). A seabed point at ground range x seen from altitude h is at
+    # atan(h / x) below the horizontal; moving it by dx turns it by h / (x^2 + h^2) dx.
+    x = float(config.near_start_m(ALTITUDE_M))
+    assert x == pytest.approx(2.0 * ALTITUDE_M)
+    margin_m = config.margin_rad * (x**2 + ALTITUDE_M**2) / ALTITUDE_M  # 0.065 m at 1 m altitude
+    assert first <= margin_m, (first, margin_m)
+    assert worst <= config.zone_lead_m, (worst, config.zone_lead_m)

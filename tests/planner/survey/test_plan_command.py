@@ -39,6 +39,9 @@ def test_stay_inside_and_origin(tmp_path: Path) -> None:
     assert plan.summary.stay_inside
     assert (plan.origin_lat_deg, plan.origin_lon_deg) == (43.295, 5.36)
     assert all(p.max_excursion_m < 1e-6 for p in plan.passes)
+    # Kept inside, the lanes still sweep the example area (a sliver at its edges aside).
+    assert plan.summary.coverage_fraction >= 0.99
+    assert all(p.coverage_fraction >= 0.99 for p in plan.passes)
 
 
 def test_bad_inputs_exit_2_naming_the_problem(tmp_path: Path,
