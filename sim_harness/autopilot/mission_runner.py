@@ -246,10 +246,7 @@ class MissionRunner:
             return True
         if item.command in MISSION_OWN:
             return True  # nothing here to move (servos, relays, cameras, grippers)
-        if item.command == M.MAV_CMD_JUMP_TAG:  # the tag is recorded, then Sub sees it too
-            self._sub_start_command(item, r)
-            return True
-        return self._sub_start_command(item, r)
+        return self._sub_start_command(item, r)  # JUMP_TAG too (its tag recorded, it falls through)
 
     def _sub_start_command(self, item: StoredItem, r: SensorReadings | None) -> bool:
         """``Sub::start_command``: the alt-frame check, then the command itself."""
@@ -311,7 +308,7 @@ class MissionRunner:
             self._surfacing = (r.north_m, r.east_m)
             self._hooks.start_leg(r.north_m, r.east_m, 0.0, None)
             return True
-        ne = self._hooks.ned_of(item.lat_e7, item.lon_e7)
+        ne = self._place(item, r)
         if ne is None:
             return False
         self._hooks.start_leg(ne[0], ne[1], r.depth_m, None)
