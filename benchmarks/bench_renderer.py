@@ -3,7 +3,10 @@
 ``python -m benchmarks.bench_renderer [--frames N]`` prints a Markdown section. Every frame
 is rendered at full quality (analytic seabed, occlusion-refined targets, pulse blur, side
 lobes, speckle, noise, uint8 mapping) plus its ground truth; the pose moves a little
-between frames so nothing can be cached. OpenCV is held to one thread.
+between frames so nothing can be cached. OpenCV is held to one thread (as in the render
+process of a dry run, :mod:`sim_harness.render_worker`). A fixed reference workload of
+float32 array arithmetic is timed before and after the scenes, so that a slow (shared)
+host shows.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 import cv2
+import numpy as np
 
 from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
 from sim_harness.sonar.scene import Scene, load_scene
@@ -36,6 +40,21 @@ def _measure(renderer: SonarRenderer, pose: SonarPose, frames: int) -> tuple[flo
         best_wall = min(best_wall, time.perf_counter() - wall0)
         best_cpu = min(best_cpu, time.process_time() - cpu0)
     return frames / best_wall, frames / best_cpu, len(truth.targets)
+
+
+def reference_workload_cpu_s() -> float:
+    """CPU time of a fixed workload of float32 array arithmetic like a frame's (best of 3), s."""
+    a = np.linspace(0.0, 1.0, 128_000, dtype=np.float32)
+    best = math.inf
+    for _ in range(3):
+        cpu0 = time.process_time()
+        for _ in range(200):
+            b = a * np.float32(0.5)
+            b += a
+            np.sqrt(b, out=b)
+            np.exp(b, out=b)
+        best = min(best, time.process_time() - cpu0)
+    return best
 
 
 def _with_texture(world: World, texture: SeabedTexture | None) -> World:
@@ -73,11 +92,14 @@ def main(argv: Sequence[str] | None = None) -> None:
     print("## renderer\n")
     print(f"128 beams x 1000 samples per frame, frame + truth, best of 3 x {args.frames} frames; "
           f"Python {platform.python_version()}, {platform.machine()}, OpenCV threads 1.\n")
+    before = reference_workload_cpu_s()
     print("| scene | targets in view | frames/s (wall) | frames/s (CPU time) |")
     print("| --- | --- | --- | --- |")
     for label, renderer, pose in _cases():
         wall, cpu, n = _measure(renderer, pose, args.frames)
         print(f"| {label} | {n} | {wall:.0f} | {cpu:.0f} |")
+    after = reference_workload_cpu_s()
+    print(f"\nReference workload (float32 arithmetic, CPU): {before * 1e3:.0f} ms before, {after * 1e3:.0f} ms after.")
     print("\nRequirement >= 100 frames/s, goal >= 300. Repeat: `python -m benchmarks.bench_renderer`.")
 
 

@@ -103,8 +103,19 @@ class RenderWorker:
         self._child.close()
 
 
+#: OpenCV threads in the render process. The process is the parallelism (it renders while
+#: the controller works); OpenCV's own pool splitting one small filter or remap over the
+#: cores costs more CPU in waking and syncing its threads than it saves (about 0.3-0.5 ms
+#: a ping on 2 cores), CPU the controller and the map process then lack. Frames are the
+#: same with any number of threads.
+RENDER_OPENCV_THREADS = 1
+
+
 def main() -> None:
     """The child process (:func:`perception.child_process.child_streams`)."""
+    import cv2  # the renderer's; only this process is set to one thread
+
+    cv2.setNumThreads(RENDER_OPENCV_THREADS)
     serve(*child_streams())
 
 

@@ -6,7 +6,7 @@ from perception.mapping.builder import MosaicBuilder, masks_from_shadows
 from perception.mapping.fan import frame_to_fan, polar_to_fan
 from perception.mapping.fan_geometry import FanGeometry, fan_geometry
 from perception.mapping.heights_layer import MappedTarget, height_raster, targets_feature_collection
-from perception.mapping.mosaic import MosaicConfig, TiledMosaic, placement_from_frame, project_frame
+from perception.mapping.mosaic import MosaicConfig, TiledMosaic, placement_from_frame
 from perception.mapping.products import (
     MapRaster,
     map_raster,
@@ -15,6 +15,7 @@ from perception.mapping.products import (
     write_png_with_world_file,
     write_targets_geojson,
 )
+from perception.mapping.projection import project_frame
 from perception.mapping.registration import DriftEstimator, RegistrationConfig, RegistrationResult, measure_shift
 
 __all__ = [

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -16,8 +16,8 @@ from perception.mapping.mosaic import (
     SonarPlacement,
     TiledMosaic,
     placement_from_frame,
-    project_frame,
 )
+from perception.mapping.projection import check_altitude, frame_samples, project_samples
 from perception.mapping.registration import (
     DriftEstimator,
     RegistrationConfig,
@@ -173,7 +173,7 @@ class MosaicBuilder:
     Frames are registered against a LAGGED reference mosaic, which holds only frames at
     least ``reference_lag_frames`` old (against the newest frames a frame would only
     confirm the drift it shares with them) and only their seabed cells (no raised targets'
-    echoes, no shadows: see :func:`~perception.mapping.mosaic.project_frame`).
+    echoes, no shadows: see :func:`~perception.mapping.projection.project_frame`).
     """
 
     def __init__(self, config: MosaicConfig | None = None, registration: RegistrationConfig | None = None):
@@ -181,7 +181,7 @@ class MosaicBuilder:
         self.registration = registration
         self.drift = DriftEstimator(registration) if registration is not None else None
         self._reference = TiledMosaic(self.mosaic.config) if registration is not None else None
-        self._pending: deque[ProjectedFrame] = deque()
+        self._pending: deque[_SeabedCells] = deque()
         self._last_position: tuple[float, float] | None = None
         #: Horizontal distance between the navigation positions of successive frames, summed, m.
         self.travelled_m = 0.0
@@ -224,8 +224,9 @@ class MosaicBuilder:
         d_n = self.drift.north_m if self.drift else 0.0
         d_e = self.drift.east_m if self.drift else 0.0
         cfg = self.mosaic.config
-        masks = {"exclude_mask": exclude_mask, "unreliable_mask": unreliable_mask}
-        projected = _scaled(project_frame(frame, placement.shifted(d_n, d_e), config=cfg, **masks), weight_scale)
+        check_altitude(placement)
+        samples = frame_samples(frame, exclude_mask=exclude_mask, unreliable_mask=unreliable_mask)
+        projected = _scaled(project_samples(samples, placement.shifted(d_n, d_e), config=cfg), weight_scale)
         if projected is None:
             return FrameAdded(False, d_n, d_e, None)
         result: RegistrationResult | None = None
@@ -237,26 +238,48 @@ class MosaicBuilder:
                                        travelled_m=self.travelled_m)
             if result.accepted:
                 d_n, d_e = self.drift.north_m, self.drift.east_m
-                projected = _scaled(project_frame(frame, placement.shifted(d_n, d_e), config=cfg, **masks),
-                                    weight_scale)
+                projected = _scaled(project_samples(samples, placement.shifted(d_n, d_e), config=cfg), weight_scale)
                 if projected is None:
                     return FrameAdded(False, d_n, d_e, result)
         self.mosaic.add(projected)
         if self._reference is not None and reg is not None:
-            self._pending.append(projected)
+            self._pending.append(_SeabedCells.of(projected))
             while len(self._pending) > reg.reference_lag_frames:
                 old = self._pending.popleft()
-                self._reference.add(replace(old, weight=np.where(old.reliable, old.weight, np.float32(0))))
+                self._reference.add_sums(old.row0, old.col0, old.weight, old.weighted_intensity)
         return FrameAdded(True, d_n, d_e, result)
 
 
+@dataclass(frozen=True, eq=False)
+class _SeabedCells:
+    """A blended frame's seabed cells, as the registration reads them (made once per frame,
+    read by every stack it joins and by the reference mosaic): ``weight`` zero off the
+    reliable cells, ``weighted_intensity`` = intensity x that weight."""
+
+    row0: int
+    col0: int
+    weight: np.ndarray
+    weighted_intensity: np.ndarray
+
+    @classmethod
+    def of(cls, projected: ProjectedFrame) -> _SeabedCells:
+        weight = np.where(projected.reliable, projected.weight, np.float32(0))
+        return cls(projected.row0, projected.col0, weight, projected.intensity * weight)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (int(self.weight.shape[0]), int(self.weight.shape[1]))
+
+
 def _scaled(projected: ProjectedFrame | None, factor: float) -> ProjectedFrame | None:
+    """``projected`` with its weights times ``factor``, in place (it was just made, nobody else holds it)."""
     if projected is None or factor == 1.0:
         return projected
-    return replace(projected, weight=projected.weight * np.float32(factor))
+    np.multiply(projected.weight, np.float32(factor), out=projected.weight)
+    return projected
 
 
-def _stack(newest: ProjectedFrame, older: list[ProjectedFrame]) -> ProjectedFrame:
+def _stack(newest: ProjectedFrame, older: list[_SeabedCells]) -> ProjectedFrame:
     """The weighted mean of ``newest`` and the seabed cells of ``older`` over ``newest``'s window.
 
     Cells count as reliable where ``newest`` covers the seabed (the window's footprint).
@@ -274,9 +297,8 @@ def _stack(newest: ProjectedFrame, older: list[ProjectedFrame]) -> ProjectedFram
             continue
         src = (slice(r0 - p.row0, r1 - p.row0), slice(c0 - p.col0, c1 - p.col0))
         dst = (slice(r0 - newest.row0, r1 - newest.row0), slice(c0 - newest.col0, c1 - newest.col0))
-        w = np.where(p.reliable[src], p.weight[src], np.float32(0))
-        sum_w[dst] += w
-        sum_wi[dst] += w * p.intensity[src]
+        sum_w[dst] += p.weight[src]
+        sum_wi[dst] += p.weighted_intensity[src]
     mean = np.zeros_like(sum_wi)
     np.divide(sum_wi, sum_w, out=mean, where=sum_w > 0)
     return ProjectedFrame(newest.row0, newest.col0, mean, sum_w, newest.reliable & (sum_w > 0))

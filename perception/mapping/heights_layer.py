@@ -112,20 +112,47 @@ def height_raster(
         cell around its centre) lies. Where footprints overlap, the taller wins.
     """
     raster = np.full(shape, np.nan, dtype=np.float32)
+    # One mask, drawn on and cleared again around each target only: a target costs its own
+    # few cells, not a pass over the whole map.
+    mask = np.zeros(shape, dtype=np.uint8)
     for t in sorted(targets, key=lambda t: t.height_m if math.isfinite(t.height_m) else -1):
         if not math.isfinite(t.height_m):
             continue
-        mask = np.zeros(shape, dtype=np.uint8)
         if len(t.footprint_ne_m) >= 3:
             pts = np.array(
                 [[(e / resolution_m - 0.5 - col0), (n / resolution_m - 0.5 - row0)] for n, e in t.footprint_ne_m]
             )
             imaging.fill_polygon(mask, pts, 1)
+            box = _box(pts[:, 0].min(), pts[:, 0].max(), pts[:, 1].min(), pts[:, 1].max(), shape)
         else:
             centre = (
                 int(round(t.east_m / resolution_m - 0.5 - col0)),
                 int(round(t.north_m / resolution_m - 0.5 - row0)),
             )
             imaging.fill_disc(mask, centre, 1, 1)
-        raster[mask > 0] = t.height_m
+            box = _box(centre[0], centre[0], centre[1], centre[1], shape)
+        if box is None:
+            continue
+        drawn = mask[box]
+        raster[box][drawn > 0] = t.height_m
+        drawn[...] = 0
     return raster
+
+
+#: Cells beyond a shape's corner points its drawing may reach (rounding to 1/16 cell, the
+#: disc's radius of 1, the 8-connected edges), with room to spare.
+_DRAW_MARGIN = 3
+
+
+def _box(c_min: float, c_max: float, r_min: float, r_max: float,
+         shape: tuple[int, int]) -> tuple[slice, slice] | None:
+    """The cells of ``shape`` a shape drawn within those columns and rows can touch; None off the map."""
+    if not all(math.isfinite(v) for v in (c_min, c_max, r_min, r_max)):
+        return (slice(0, shape[0]), slice(0, shape[1]))
+    c0 = max(0, math.floor(c_min) - _DRAW_MARGIN)
+    c1 = min(shape[1], math.ceil(c_max) + _DRAW_MARGIN + 1)
+    r0 = max(0, math.floor(r_min) - _DRAW_MARGIN)
+    r1 = min(shape[0], math.ceil(r_max) + _DRAW_MARGIN + 1)
+    if c1 <= c0 or r1 <= r0:
+        return None
+    return (slice(r0, r1), slice(c0, c1))

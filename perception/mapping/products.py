@@ -61,7 +61,8 @@ def map_raster(
         raise ValueError("the mosaic holds no cell with weight above min_weight")
     r_lo, r_hi, c_lo, c_hi = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
     res = mosaic.config.resolution_m
-    intensity = np.where(covered, mean, np.nan)[r_lo:r_hi, c_lo:c_hi]
+    crop = (slice(r_lo, r_hi), slice(c_lo, c_hi))
+    intensity = np.where(covered[crop], mean[crop], np.nan)
     heights = height_raster(
         targets, row0=row0 + r_lo, col0=col0 + c_lo, shape=intensity.shape, resolution_m=res
     )

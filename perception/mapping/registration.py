@@ -44,35 +44,48 @@ from perception.mapping.mosaic import ProjectedFrame, TiledMosaic
 from perception.mapping.registration_config import RegistrationConfig, RegistrationResult
 
 
-def _high_pass(image: np.ndarray, mask: np.ndarray, sigma_cells: float) -> np.ndarray:
-    """``image`` minus its local mean inside ``mask`` (normalised convolution), 0 outside."""
+def _high_pass(images: tuple[np.ndarray, ...], mask: np.ndarray, sigma_cells: float) -> tuple[np.ndarray, ...]:
+    """Each of ``images`` minus its local mean inside ``mask`` (normalised convolution), 0
+    outside; the mask's own blur, shared by all, is done once."""
     m = mask.astype(np.float32)
-    local = imaging.gaussian_blur(image * m, sigma_cells)
     norm = imaging.gaussian_blur(m, sigma_cells)
-    out = np.zeros_like(image)
-    np.divide(local, norm, out=out, where=norm > 1e-3)
-    return (image - out) * m
+    where = norm > 1e-3
+    out = []
+    for image in images:
+        local = imaging.gaussian_blur(image * m, sigma_cells)
+        mean = np.zeros_like(image)
+        np.divide(local, norm, out=mean, where=where)
+        out.append((image - mean) * m)
+    return tuple(out)
 
 
-def _robust_spread(image: np.ndarray, mask: np.ndarray) -> float:
-    """1.4826 x the median absolute deviation of the ``mask`` cells of ``image``."""
-    values = image[mask]
+def _robust_spread(values: np.ndarray, median: float) -> float:
+    """1.4826 x the median absolute deviation of ``values`` (their ``median`` given)."""
     if values.size == 0:
         return 0.0
-    return 1.4826 * float(np.median(np.abs(values - np.median(values))))
+    return 1.4826 * float(np.median(np.abs(values - median)))
 
 
-def _outliers(image: np.ndarray, mask: np.ndarray, sigmas: float, spread: float) -> np.ndarray:
+def _outliers(smooth: np.ndarray, mask: np.ndarray, sigmas: float, spread: float,
+              values: np.ndarray | None = None, median: float | None = None) -> np.ndarray:
     """Cells of ``mask`` darker than their median by ``sigmas * spread``, bool.
 
-    The image is smoothed over 2 cells first, so single dark speckle cells do not count;
-    a shadow, many cells long, does.
+    ``smooth`` is the image smoothed over 2 cells (:func:`_smoothed`), so single dark
+    speckle cells do not count; a shadow, many cells long, does. ``values`` (its ``mask``
+    cells) and their ``median`` when already known.
     """
-    smooth = imaging.gaussian_blur(image, 2.0)
-    values = smooth[mask]
+    if values is None:
+        values = smooth[mask]
     if values.size == 0 or spread <= 0:
-        return np.zeros(image.shape, dtype=bool)
-    return mask & (smooth < float(np.median(values)) - sigmas * spread)
+        return np.zeros(smooth.shape, dtype=bool)
+    if median is None:
+        median = float(np.median(values))
+    return mask & (smooth < median - sigmas * spread)
+
+
+def _smoothed(image: np.ndarray) -> np.ndarray:
+    """The image smoothed over 2 cells, as the outlier test reads it."""
+    return imaging.gaussian_blur(image, 2.0)
 
 
 def _correlate(
@@ -160,16 +173,20 @@ def measure_shift(
     if not np.any(core):
         return RegistrationResult(False, 0.0, 0.0, 0.0, overlap, "overlap too thin")
     sigma_hp = 4.0 * max(1.0, config.texture_scale_m / res)
-    a = _high_pass(np.where(both, projected.intensity, 0).astype(np.float32), both, sigma_hp)
-    b = _high_pass(np.where(both, ref, 0).astype(np.float32), both, sigma_hp)
+    a, b = _high_pass((np.where(both, projected.intensity, 0).astype(np.float32),
+                       np.where(both, ref, 0).astype(np.float32)), both, sigma_hp)
     if config.outlier_sigmas > 0:
         # Strong isolated echoes and deep shadows are objects, not seabed texture: their
         # place depends on the view (layover), so they and a margin around them go.
         # One scale for both, the new frame's (speckle-dominated) spread: the reference,
         # averaged over many pings, is much smoother, and a bright marker's halo in it
         # would count as dark by its own spread.
-        scale = _robust_spread(imaging.gaussian_blur(a, 2.0), both)
-        odd = _outliers(a, both, config.outlier_sigmas, scale) | _outliers(b, both, config.outlier_sigmas, scale)
+        a_smooth = _smoothed(a)
+        a_values = a_smooth[both]
+        a_median = float(np.median(a_values)) if a_values.size else math.nan
+        scale = _robust_spread(a_values, a_median)
+        odd = (_outliers(a_smooth, both, config.outlier_sigmas, scale, a_values, a_median)
+               | _outliers(_smoothed(b), both, config.outlier_sigmas, scale))
         if np.any(odd):
             grow = max(1, int(round(config.outlier_margin_m / res)))
             odd = imaging.dilate(odd.astype(np.uint8), np.ones((2 * grow + 1, 2 * grow + 1), np.uint8)) > 0
@@ -177,8 +194,8 @@ def measure_shift(
             core = imaging.erode(both.astype(np.uint8), kernel)
             if np.count_nonzero(both) < config.min_overlap_fraction * footprint or not np.any(core):
                 return RegistrationResult(False, 0.0, 0.0, 0.0, overlap, "overlap is mostly objects")
-            a = _high_pass(np.where(both, projected.intensity, 0).astype(np.float32), both, sigma_hp)
-            b = _high_pass(np.where(both, ref, 0).astype(np.float32), both, sigma_hp)
+            a, b = _high_pass((np.where(both, projected.intensity, 0).astype(np.float32),
+                               np.where(both, ref, 0).astype(np.float32)), both, sigma_hp)
     apod = imaging.gaussian_blur(core.astype(np.float32), margin / 2.0)
     a *= apod
     b *= apod

@@ -11,8 +11,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from perception.sonar_io.npz import save_frames
-from perception.sonar_io.readers import open_recording
 from planner.errors import UsageError
 
 
@@ -62,6 +60,9 @@ def parse_frame_slice(text: str) -> slice:
 
 def run(args: argparse.Namespace) -> int:
     """Convert; 0 on success (bad input raises and the CLI exits 2)."""
+    from perception.sonar_io.npz import save_frames
+    from perception.sonar_io.readers import open_recording
+
     source = Path(args.input)
     target = Path(args.output)
     if target.suffix.lower() != ".npz":

@@ -18,12 +18,11 @@ import sys
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from perception.atomic_file import atomic_write_text
-from perception.heights.pipeline import HeightPipeline, TargetHeight
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.readers import open_recording
 from planner.commands import args as args_types
@@ -34,6 +33,9 @@ from planner.commands.frame_checks import (
     check_one_scene,
 )
 from planner.errors import UsageError
+
+if TYPE_CHECKING:
+    from perception.heights.pipeline import TargetHeight
 
 #: Altitude changes closer than this count as one altitude, m.
 SAME_ALTITUDE_M = 1e-6
@@ -247,6 +249,8 @@ def compute(
     paths: Sequence[str], *, delta_h_m: float | None = None, altitude_m: float | None = None
 ) -> dict[str, Any]:
     """Load, check and process the frames; returns the JSON document."""
+    from perception.heights.pipeline import HeightPipeline  # the filter and solvers: only when computing
+
     frames = load_all(paths)
     check_one_scene([f.label for f in frames], [f.frame for f in frames],
                     seabed_tolerance_m=HEIGHTS_SEABED_TOLERANCE_M)

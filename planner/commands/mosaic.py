@@ -22,25 +22,15 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-from tqdm import tqdm
-
-from perception.geodesy import LocalOrigin
-from perception.mapping.mosaic import MosaicConfig
-from perception.mapping.products import write_geotiff, write_png_with_world_file, write_targets_geojson
-from perception.mapping.registration import RegistrationConfig
-from perception.mapping.survey_map import SurveyMap
-from perception.sonar_io.display import DEFAULT_SEABED_LEVEL, as_display, seabed_display_level
-from perception.sonar_io.frame import SonarFrame
-from perception.sonar_io.readers import open_recording
 from planner.commands import args as args_types
 from planner.commands.frame_checks import MOSAIC_SEABED_TOLERANCE_M, MapExtent, check_altitudes, check_one_scene
-from planner.commands.nav_csv import NavTable
 from planner.errors import UsageError
 from planner.mission.output_folder import check_output_folder, staged_folder
-from planner.report.map_plot import render_map_png
+
+if TYPE_CHECKING:
+    from perception.sonar_io.frame import SonarFrame
 
 
 def register(subparsers: Any) -> None:
@@ -62,6 +52,19 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Build the map; exit 0, or 2 for bad input."""
+    import numpy as np
+    from tqdm import tqdm
+
+    from perception.geodesy import LocalOrigin
+    from perception.mapping.mosaic import MosaicConfig
+    from perception.mapping.products import write_geotiff, write_png_with_world_file, write_targets_geojson
+    from perception.mapping.registration import RegistrationConfig
+    from perception.mapping.survey_map import SurveyMap
+    from perception.sonar_io.display import DEFAULT_SEABED_LEVEL, as_display, seabed_display_level
+    from perception.sonar_io.readers import open_recording
+    from planner.commands.nav_csv import NavTable
+    from planner.report.map_plot import render_map_png  # matplotlib: only when a map is drawn
+
     origin = LocalOrigin(*args.origin)
     out = Path(args.out)
     check_output_folder(out, kind="map", overwrite=args.overwrite)

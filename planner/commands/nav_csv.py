@@ -23,7 +23,6 @@ from pathlib import Path
 import numpy as np
 
 from perception.errors import FrameFormatError
-from perception.navigation.history import NavigationHistory
 from perception.sonar_io.frame import SonarFrame
 from perception.sonar_io.validate import DEPTH_ABOVE_SURFACE_TOLERANCE_M
 from planner.errors import UsageError
@@ -97,6 +96,8 @@ class NavTable:
         self.path = path
         c = self.columns
         nan = np.full(t.shape, math.nan)
+        from perception.navigation.history import NavigationHistory  # its package loads the altitude filter
+
         self.history = NavigationHistory(float(t[-1] - t[0]) + 1.0, max_extrapolation_s=0.0)
         for k, time_s in enumerate(t):
             self.history.add_position(float(time_s), float(c["north_m"][k]), float(c["east_m"][k]))

@@ -18,26 +18,17 @@ import argparse
 import sys
 import time
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 from planner.commands import args as args_types
 from planner.config import Settings, default_settings, load_settings
 from planner.errors import UsageError
-from planner.mission.altitude_watch import AltitudeLimits, DiveWatch
-from planner.mission.executor import ExecutorConfig, MissionExecutor, PlanTilt
-from planner.mission.onboard import OnboardConfig, OnboardPerception
 from planner.mission.output_folder import check_output_folder, staged_folder
-from planner.mission.preflight import PreflightReport
-from planner.mission.products import summary_document, write_products
-from planner.mission.run_folder import RunFolder, mark_partial
-from planner.mission.safety import SafetyLimits
-from planner.mission.sonar_sources import DirectorySonarSource
-from planner.pitch.control import ShadowPitchLoop
-from planner.report.markdown import generate_report
 from planner.survey.plan import SurveyPlan, load_plan
-from vehicle_link.client import ArduSubClient, LinkHealth
-from vehicle_link.clock import WallClock
-from vehicle_link.config import LinkConfig
+
+if TYPE_CHECKING:
+    from planner.mission.preflight import PreflightReport
+    from vehicle_link.client import LinkHealth
 
 #: Components BlueOS leaves free for a companion program (194 is mavlink2rest's).
 COMPANION_COMPONENTS = (191, 192, 193)
@@ -102,6 +93,10 @@ def run(args: argparse.Namespace) -> int:
     leaves it beside, marked partial (:mod:`planner.mission.output_folder`). Ctrl-C
     during the dive commands the safe action and still writes the whole run folder.
     """
+    from planner.mission.run_folder import mark_partial
+    from planner.mission.sonar_sources import DirectorySonarSource
+    from planner.report.markdown import generate_report
+
     check_output_folder(Path(args.out), kind="run", overwrite=args.overwrite)
     plan = load_plan(args.plan)
     settings = load_settings(args.config) if args.config else default_settings()
@@ -117,6 +112,17 @@ def run(args: argparse.Namespace) -> int:
 
 def _fly(args: argparse.Namespace, plan: SurveyPlan, settings: Settings, sonar: Any, out: Path) -> dict[str, Any]:
     """Connect, check, ask, fly the dive into the run folder ``out``; returns the summary."""
+    from planner.mission.altitude_watch import AltitudeLimits, DiveWatch
+    from planner.mission.executor import ExecutorConfig, MissionExecutor, PlanTilt
+    from planner.mission.onboard import OnboardConfig, OnboardPerception
+    from planner.mission.products import summary_document, write_products
+    from planner.mission.run_folder import RunFolder
+    from planner.mission.safety import SafetyLimits
+    from planner.pitch.control import ShadowPitchLoop
+    from vehicle_link.client import ArduSubClient
+    from vehicle_link.clock import WallClock
+    from vehicle_link.config import LinkConfig
+
     text = _plan_text(args, plan, settings)
 
     def confirm(report: PreflightReport) -> bool:

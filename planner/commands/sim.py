@@ -19,7 +19,6 @@ from typing import Any
 from tqdm import tqdm
 
 from planner.mission.output_folder import check_output_folder
-from planner.report.markdown import generate_report
 
 
 def register(subparsers: Any) -> None:
@@ -55,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
     from planner.dryrun.consistency import check_consistent
     from planner.dryrun.dive import dry_dive_into, prepare_dry_dive
     from planner.dryrun.scenario import load_scenario
+    from planner.report.markdown import generate_report
 
     overrides = {"pitch_loop": False} if args.fixed_tilt else {}
     prepared = prepare_dry_dive(load_scenario(args.scenario, **overrides))

@@ -6,11 +6,36 @@
 - :mod:`planner.dryrun.shadow_view`: the judge's own shadow-visibility geometry.
 
 The one part of :mod:`planner` that imports :mod:`sim_harness` (see CONTRIBUTING.md).
-"""
 
-from planner.dryrun.dive import DryRun, make_tilt_controller, run_dry_dive
-from planner.dryrun.scenario import BUILTIN_SCENARIOS, Scenario, load_scenario
-from planner.dryrun.scoring import score_against_truth
+The names below are imported on first use (PEP 562), so that importing one module of the
+package does not load the others."""
 
-__all__ = ["BUILTIN_SCENARIOS", "DryRun", "Scenario", "load_scenario", "make_tilt_controller", "run_dry_dive",
-           "score_against_truth"]
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "BUILTIN_SCENARIOS": "planner.dryrun.scenario",
+    "DryRun": "planner.dryrun.dive",
+    "Scenario": "planner.dryrun.scenario",
+    "load_scenario": "planner.dryrun.scenario",
+    "make_tilt_controller": "planner.dryrun.dive",
+    "run_dry_dive": "planner.dryrun.dive",
+    "score_against_truth": "planner.dryrun.scoring",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name's module on first use (PEP 562)."""
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'planner.dryrun' has no attribute {name!r}") from None
+    return getattr(importlib.import_module(module), name)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

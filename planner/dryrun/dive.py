@@ -227,9 +227,6 @@ def run_dry_dive(
                 t0 = faults.anchor.get("t0_s", math.inf)
             if scenario.companion_dies_at_s is not None and now >= t0 + scenario.companion_dies_at_s:
                 raise CompanionDied()
-            if now - holder.get("products_s", now) > 60.0:
-                write_products(run, executor.onboard, executor.map_origin)
-                holder["products_s"] = now
 
         joined = threading.Event()
 

@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from planner.errors import ConfigError
-from planner.mission.executor import ExecutorConfig
+from planner.mission.executor_config import ExecutorConfig
 from planner.mission.safety import SafetyLimits
 from planner.settings_table import SettingsTable
 from sim_harness.autopilot.params import ARDUSUB_4_5

@@ -1,28 +1,43 @@
-"""Flying a planned survey: the executor, its safety envelope, on-board perception, the run folder."""
+"""Flying a planned survey: the executor, its safety envelope, on-board perception, the run folder.
 
-from planner.mission.executor import DiveResult, ExecutorConfig, MissionExecutor, PlanTilt, TiltSource
-from planner.mission.onboard import OnboardConfig, OnboardPerception, OnboardStatus
-from planner.mission.products import summary_document, write_products
-from planner.mission.run_folder import RunFolder
-from planner.mission.safety import SafetyLimits, clamp_depth, safe_depth_for_altitude
-from planner.mission.sonar_sources import DirectorySonarSource
-from planner.mission.vehicle import Vehicle
+The names below are imported on first use (PEP 562), so that importing one module of the
+package does not load the others."""
 
-__all__ = [
-    "DirectorySonarSource",
-    "DiveResult",
-    "ExecutorConfig",
-    "PlanTilt",
-    "MissionExecutor",
-    "OnboardConfig",
-    "OnboardPerception",
-    "OnboardStatus",
-    "RunFolder",
-    "SafetyLimits",
-    "TiltSource",
-    "Vehicle",
-    "clamp_depth",
-    "safe_depth_for_altitude",
-    "summary_document",
-    "write_products",
-]
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "DirectorySonarSource": "planner.mission.sonar_sources",
+    "DiveResult": "planner.mission.executor",
+    "ExecutorConfig": "planner.mission.executor",
+    "MissionExecutor": "planner.mission.executor",
+    "OnboardConfig": "planner.mission.onboard",
+    "OnboardPerception": "planner.mission.onboard",
+    "OnboardStatus": "planner.mission.onboard",
+    "PlanTilt": "planner.mission.executor",
+    "RunFolder": "planner.mission.run_folder",
+    "SafetyLimits": "planner.mission.safety",
+    "TiltSource": "planner.mission.executor",
+    "Vehicle": "planner.mission.vehicle",
+    "clamp_depth": "planner.mission.safety",
+    "safe_depth_for_altitude": "planner.mission.safety",
+    "summary_document": "planner.mission.products",
+    "write_products": "planner.mission.products",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name's module on first use (PEP 562)."""
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'planner.mission' has no attribute {name!r}") from None
+    return getattr(importlib.import_module(module), name)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -33,7 +33,7 @@ import math
 import queue
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from perception.heights.pipeline import FrameResult, TargetHeight
 from perception.mapping.heights_layer import MappedTarget
@@ -173,6 +173,7 @@ class OnboardPerception:
                                          mosaic_looks=cfg.mosaic_looks),
                                process=cfg.map_process, tracked_targets_every_s=cfg.tracked_targets_every_s)
         self._inbox: queue.SimpleQueue[object] = queue.SimpleQueue()
+        self._estimates: dict[tuple[str, float], Any] = {}  # _ask's answers (a cycle asks several times)
         self._last_altimeter_s = -math.inf
         self._last_depth_s = -math.inf
         self._last_altimeter_m = math.nan
@@ -215,10 +216,12 @@ class OnboardPerception:
     def ground_track_changed(self) -> None:
         """Tell the altitude filter that the vehicle starts a new leg, turn or stop: the
         seabed's rate under it is learnt again (:meth:`AltitudeFilter.release_seabed_rate`)."""
+        self._estimates.clear()
         self._filter.release_seabed_rate()
 
     def expect_vertical_motion(self, moving: bool) -> None:
         """Tell the altitude filter that a commanded depth change is (or is no longer) under way."""
+        self._estimates.clear()
         self._filter.set_maneuvering(moving)
 
     def process_frames(self, frames: Sequence[SonarFrame]) -> list[FrameResult]:
@@ -257,6 +260,7 @@ class OnboardPerception:
         return math.isnan(last) or time_s >= last
 
     def _take_record(self, record: object) -> None:
+        self._estimates.clear()  # what the filter said before no longer holds
         try:
             self._take_checked(record, self.config)
         except ValueError:  # NaN or impossible values: the filter refused them, state intact
@@ -274,19 +278,15 @@ class OnboardPerception:
             self._seen_distance_sensor |= record.source != "RANGEFINDER"
             if record.in_range and math.isfinite(record.distance_m) and self._in_order(record.time_s):
                 result = self._filter.update_altimeter(
-                    record.time_s, record.distance_m, cfg.altimeter_std_m,
-                    signal_quality=record.signal_quality_pct,
-                    min_distance_m=record.min_distance_m, max_distance_m=record.max_distance_m,
-                )
+                    record.time_s, record.distance_m, cfg.altimeter_std_m, signal_quality=record.signal_quality_pct,
+                    min_distance_m=record.min_distance_m, max_distance_m=record.max_distance_m)
                 if result.accepted:
                     self._last_altimeter_s = record.time_s
                     self._last_altimeter_m = record.distance_m
-        elif isinstance(record, LocalPositionNed):
-            # Frames are placed from these alone, never from a position an attitude sample
-            # carried along.
-            self._nav.add_position(record.time_s, record.north_m, record.east_m,
-                                   velocity_north_m_s=record.velocity_north_m_s,
-                                   velocity_east_m_s=record.velocity_east_m_s)
+        elif isinstance(record, LocalPositionNed):  # frames are placed from these, never an attitude's position
+            r = record
+            self._nav.add_position(r.time_s, r.north_m, r.east_m, velocity_north_m_s=r.velocity_north_m_s,
+                                   velocity_east_m_s=r.velocity_east_m_s)
         elif isinstance(record, Attitude):
             self._nav.add_attitude(record.time_s, record.yaw_rad, record.pitch_rad, record.roll_rad)
         elif isinstance(record, MountStatus):
@@ -318,32 +318,34 @@ class OnboardPerception:
 
     def altitude(self, time_s: float) -> tuple[float, float]:
         """(altitude, std) from the filter at ``time_s``; NaN when it cannot say."""
-        try:
-            est = self._filter.altitude_at(time_s)
-        except (ValueError, LookupError):
-            return math.nan, math.nan
-        return float(est.mean), float(est.std)
+        est = self._ask("altitude_at", time_s)
+        return (math.nan, math.nan) if est is None else (float(est.mean), float(est.std))
 
     def seabed_depth(self, time_s: float) -> tuple[float, float]:
         """(seabed depth, std) from the filter at ``time_s``; NaN when it cannot say."""
-        try:
-            x, p = self._filter.state_at(time_s)
-        except (ValueError, LookupError):
-            return math.nan, math.nan
-        return float(x[2]), float(math.sqrt(max(p[2, 2], 0.0)))
+        x_p = self._ask("state_at", time_s)
+        return (math.nan, math.nan) if x_p is None else (float(x_p[0][2]), float(math.sqrt(max(x_p[1][2, 2], 0.0))))
 
     def depth(self, time_s: float) -> tuple[float, float]:
         """(vehicle depth, std) from the filter; NaN when it cannot say: outside its window,
         or sure to no better than :data:`~planner.mission.frame_depth.MAX_DEPTH_STD_M` (before
         the first depth reading its prior, split by a first altimeter reading, says -1 m
         +- 70 m for an altitude of 2 m: no depth to hold, to surface from or to stamp)."""
-        try:
-            est = self._filter.depth_at(time_s)
-        except (ValueError, LookupError):
-            return math.nan, math.nan
-        if not est.std <= MAX_DEPTH_STD_M:
-            return math.nan, float(est.std)
+        est = self._ask("depth_at", time_s)
+        if est is None or not est.std <= MAX_DEPTH_STD_M:
+            return math.nan, (math.nan if est is None else float(est.std))
         return float(est.mean), float(est.std)
+
+    def _ask(self, query: str, time_s: float) -> Any:
+        """The filter's ``query(time_s)`` (None if it cannot say), asked once until it changes."""
+        key, known = (query, time_s), self._estimates if len(self._estimates) < 64 else {}
+        if key not in known:
+            try:
+                known[key] = getattr(self._filter, query)(time_s)
+            except (ValueError, LookupError):
+                known[key] = None
+            self._estimates = known
+        return known[key]
 
     # ------------------------------------------------------------------ frames
     def stamp(self, frame: SonarFrame) -> SonarFrame | None:
@@ -395,3 +397,4 @@ class OnboardPerception:
         """``answer`` of a query, with the batches it took back counted (last frame, frames used)."""
         self._account(self._map.take_ready())
         return answer
+

@@ -9,77 +9,63 @@
 - :mod:`planner.pitch.qp`: the QP (casadi) itself, :class:`PitchLoop`;
 - :mod:`planner.pitch.baseline`: the fixed-tilt baseline, :class:`NominalTilt`;
 - :mod:`planner.pitch.control`: the executor's side: what the sonar shows -> the loop -> a tilt.
-"""
 
-from planner.pitch.aperture import (
-    aperture_interval_rad,
-    depression_interval_rad,
-    point_elevation_rad,
-    shadow_geometry,
-    shadow_margins_rad,
-    tracking_zone_start_m,
-)
-from planner.pitch.baseline import NominalTilt
-from planner.pitch.config import MountLimits, PitchLoopConfig
-from planner.pitch.control import (
-    DEFAULT_MOUNT,
-    ShadowPitchLoop,
-    ZoneCentredTilt,
-    describe_zone,
-    footprint_from_highlight_m,
-    loop_config,
-    merge_pieces,
-)
-from planner.pitch.measurements import shadow_from_measurement, shadow_from_ned, shadow_measurement
-from planner.pitch.prediction import predict_pitch_rad
-from planner.pitch.qp import PitchLoop
-from planner.pitch.types import (
-    BEFORE_WINDOW_START,
-    BEHIND,
-    BEYOND_MOUNT_LIMITS,
-    BEYOND_WINDOW_END,
-    EXTENT_EXCEEDS_APERTURE,
-    OUTSIDE_FAN,
-    TOO_CLOSE,
-    TOO_MANY_TARGETS,
-    PitchCommand,
-    PitchState,
-    TiltLaw,
-    TrackedShadow,
-)
+The names below are imported on first use (PEP 562), so that importing one module of the
+package does not load the others."""
 
-__all__ = [
-    "BEFORE_WINDOW_START",
-    "BEHIND",
-    "BEYOND_MOUNT_LIMITS",
-    "BEYOND_WINDOW_END",
-    "DEFAULT_MOUNT",
-    "EXTENT_EXCEEDS_APERTURE",
-    "MountLimits",
-    "NominalTilt",
-    "OUTSIDE_FAN",
-    "PitchCommand",
-    "PitchLoop",
-    "PitchLoopConfig",
-    "PitchState",
-    "ShadowPitchLoop",
-    "TOO_CLOSE",
-    "TOO_MANY_TARGETS",
-    "TiltLaw",
-    "TrackedShadow",
-    "ZoneCentredTilt",
-    "aperture_interval_rad",
-    "depression_interval_rad",
-    "describe_zone",
-    "footprint_from_highlight_m",
-    "loop_config",
-    "merge_pieces",
-    "point_elevation_rad",
-    "predict_pitch_rad",
-    "shadow_from_measurement",
-    "shadow_from_ned",
-    "shadow_geometry",
-    "shadow_margins_rad",
-    "shadow_measurement",
-    "tracking_zone_start_m",
-]
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "BEFORE_WINDOW_START": "planner.pitch.types",
+    "BEHIND": "planner.pitch.types",
+    "BEYOND_MOUNT_LIMITS": "planner.pitch.types",
+    "BEYOND_WINDOW_END": "planner.pitch.types",
+    "DEFAULT_MOUNT": "planner.pitch.control",
+    "EXTENT_EXCEEDS_APERTURE": "planner.pitch.types",
+    "MountLimits": "planner.pitch.config",
+    "NominalTilt": "planner.pitch.baseline",
+    "OUTSIDE_FAN": "planner.pitch.types",
+    "PitchCommand": "planner.pitch.types",
+    "PitchLoop": "planner.pitch.qp",
+    "PitchLoopConfig": "planner.pitch.config",
+    "PitchState": "planner.pitch.types",
+    "ShadowPitchLoop": "planner.pitch.control",
+    "TOO_CLOSE": "planner.pitch.types",
+    "TOO_MANY_TARGETS": "planner.pitch.types",
+    "TiltLaw": "planner.pitch.types",
+    "TrackedShadow": "planner.pitch.types",
+    "ZoneCentredTilt": "planner.pitch.control",
+    "aperture_interval_rad": "planner.pitch.aperture",
+    "depression_interval_rad": "planner.pitch.aperture",
+    "describe_zone": "planner.pitch.control",
+    "footprint_from_highlight_m": "planner.pitch.control",
+    "loop_config": "planner.pitch.control",
+    "merge_pieces": "planner.pitch.control",
+    "point_elevation_rad": "planner.pitch.aperture",
+    "predict_pitch_rad": "planner.pitch.prediction",
+    "shadow_from_measurement": "planner.pitch.measurements",
+    "shadow_from_ned": "planner.pitch.measurements",
+    "shadow_and_whole_intervals_rad": "planner.pitch.aperture",
+    "shadow_geometry": "planner.pitch.aperture",
+    "shadow_margins_rad": "planner.pitch.aperture",
+    "shadow_measurement": "planner.pitch.measurements",
+    "tracking_zone_start_m": "planner.pitch.aperture",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name's module on first use (PEP 562)."""
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'planner.pitch' has no attribute {name!r}") from None
+    return getattr(importlib.import_module(module), name)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -195,15 +195,26 @@ def depression_interval_rad(geom: ShadowGeometry, *, half_aperture_rad: float,
     ``include_base`` the near foot is left out: the shadow alone (for a target with a
     footprint, its near part is nearer than the shadow's start on the middle beams).
     """
+    whole, shadow = shadow_and_whole_intervals_rad(geom, half_aperture_rad=half_aperture_rad, include_base=include_base)
+    return whole if include_base else shadow
+
+
+def shadow_and_whole_intervals_rad(
+    geom: ShadowGeometry, *, half_aperture_rad: float, include_base: bool = True
+) -> tuple[tuple[FloatArray, FloatArray], tuple[FloatArray, FloatArray]]:
+    """:func:`depression_interval_rad` with and without the near foot, the shared rays
+    computed once: ``((lo, hi), (lo_shadow, hi_shadow))`` (the first is the second if not
+    ``include_base``)."""
     lo, hi = aperture_interval_rad(geom.top_along_m, geom.top_cross_m, geom.altitude_m - geom.height_m,
                                    half_aperture_rad=half_aperture_rad)
-    points = [(geom.top_along_m, geom.top_cross_m), (geom.start_along_m, geom.start_cross_m)]
-    if include_base:
-        points.append((geom.base_along_m, geom.base_cross_m))
-    for x, y in points:
+    for x, y in ((geom.top_along_m, geom.top_cross_m), (geom.start_along_m, geom.start_cross_m)):
         lo_p, hi_p = aperture_interval_rad(x, y, geom.altitude_m, half_aperture_rad=half_aperture_rad)
         lo, hi = np.maximum(lo, lo_p), np.minimum(hi, hi_p)
-    return lo, hi
+    if not include_base:
+        return (lo, hi), (lo, hi)
+    lo_b, hi_b = aperture_interval_rad(geom.base_along_m, geom.base_cross_m, geom.altitude_m,
+                                       half_aperture_rad=half_aperture_rad)
+    return (np.maximum(lo, lo_b), np.minimum(hi, hi_b)), (lo, hi)
 
 
 def shadow_margins_rad(geom: ShadowGeometry, *, depression_rad: ArrayLike,

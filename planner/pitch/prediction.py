@@ -11,7 +11,12 @@ from numpy.typing import NDArray
 
 from perception.errors import GeometryError
 from perception.geometry.shadow import clamp_height_m
-from planner.pitch.aperture import ShadowGeometry, depression_interval_rad, shadow_geometry
+from planner.pitch.aperture import (
+    ShadowGeometry,
+    depression_interval_rad,
+    shadow_and_whole_intervals_rad,
+    shadow_geometry,
+)
 from planner.pitch.config import MountLimits, PitchLoopConfig
 from planner.pitch.types import (
     BEFORE_WINDOW_START,
@@ -91,11 +96,10 @@ def serviceability(pred: HorizonPrediction, config: PitchLoopConfig, limits: Mou
     """
     g, gr = pred.geometry, pred.range_geometry
     lead = config.zone_lead_m
-    lo, hi = depression_interval_rad(g, half_aperture_rad=config.elevation_aperture_rad / 2 - config.margin_rad)
+    (lo, hi), (lo_s, _) = shadow_and_whole_intervals_rad(
+        g, half_aperture_rad=config.elevation_aperture_rad / 2 - config.margin_rad)
     low_t = lo + pred.pitch_rad + envelope_rad
     up_t = hi + pred.pitch_rad - envelope_rad
-    lo_s, _ = depression_interval_rad(g, half_aperture_rad=config.elevation_aperture_rad / 2 - config.margin_rad,
-                                      include_base=False)
     low_shadow = lo_s + pred.pitch_rad + envelope_rad
     lo0, hi0 = depression_interval_rad(gr, half_aperture_rad=config.elevation_aperture_rad / 2)
     w0, w1 = config.window_m

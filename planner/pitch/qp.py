@@ -124,6 +124,32 @@ class PitchLoop:
         self._slack_nz = np.array([diag[s0 + j] for j in range(n * m)])  # slack j = k * m + slot
         self._solver = ca.conic("pitch_loop_qp", config.solver,
                                 {"h": self._hess_dm.sparsity(), "a": self._a_dm.sparsity()}, opts)
+        # The solver evaluated on numpy arrays it reads and writes in place (casadi's
+        # FunctionBuffer), the same numbers as a call with DMs without converting them each step.
+        self._buffer, self._evaluate = self._solver.buffer()
+        self._args: dict[str, np.ndarray] = {}
+        fixed = {"h": self._hess_dm, "a": self._a_dm}
+        for i, name in enumerate(self._solver.name_in()):
+            sp = self._solver.sparsity_in(i)
+            if name in fixed and fixed[name].sparsity() != sp:
+                raise RuntimeError(f"casadi changed the sparsity of the QP's {name}")  # never: built from them
+            self._args[name] = np.array(fixed[name].nonzeros() if name in fixed else
+                                        np.full(sp.nnz(), self._solver.default_in(i)), dtype=np.float64)
+            # One memoryview fills the C++ (buffer, size in bytes) pair that casadi's stubs list.
+            self._buffer.set_arg(i, memoryview(self._args[name]))  # type: ignore[call-arg, arg-type]
+        self._x = np.zeros(self._solver.sparsity_out(0).nnz())
+        self._outs = [self._x] + [np.zeros(self._solver.sparsity_out(i).nnz()) for i in range(1, self._solver.n_out())]
+        for i, out in enumerate(self._outs):
+            self._buffer.set_res(i, memoryview(out))  # type: ignore[call-arg, arg-type]
+
+    def _solve(self, hess_nz: np.ndarray, g: np.ndarray, lba: np.ndarray, uba: np.ndarray, lbx: np.ndarray,
+               ubx: np.ndarray) -> tuple[np.ndarray, bool]:
+        """The QP with the Hessian's nonzeros ``hess_nz`` and these terms and bounds: (x, solved)."""
+        args = self._args
+        args["h"][:], args["g"][:], args["lba"][:], args["uba"][:] = hess_nz, g, lba, uba
+        args["lbx"][:], args["ubx"][:] = lbx, ubx
+        self._evaluate()
+        return self._x.copy(), bool(self._buffer.stats().get("success", False))
 
     @property
     def envelope_rad(self) -> float:
@@ -185,10 +211,7 @@ class PitchLoop:
         g[self._q0:] = cfg.weight_slack_l1 * cfg.search_weight_factor
         hess_nz = self._hess_nz.copy()
         hess_nz[self._slack_nz] = 2.0 * cfg.weight_slack_l2 * weight.ravel()
-        hess = ca.DM(self._hess_sp, hess_nz)
-        sol = self._solver(h=hess, g=g, a=self._a_dm, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
-        ok = bool(self._solver.stats().get("success", False))
-        x = np.asarray(sol["x"]).ravel()
+        x, ok = self._solve(hess_nz, g, lba, uba, lbx, ubx)
         if ok and np.all(np.isfinite(x)):
             plan = np.clip(x[:n], lim.min_tilt_rad, lim.max_tilt_rad)
             tilt = float(min(max(plan[0], first_lo), first_hi))

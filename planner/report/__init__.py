@@ -1,22 +1,39 @@
-"""The dive report: reading a run folder back, figures, heights against truth, the map picture."""
+"""The dive report: reading a run folder back, figures, heights against truth, the map picture.
 
-from planner.report.data import Event, RunFolderError, load_run
-from planner.report.height_score import match_targets, score_heights
-from planner.report.map_plot import render_map_png
-from planner.report.markdown import DEFAULT_MATCH_RADIUS_M, FIGURE_DIR, REPORT_NAME, generate_report
-from planner.report.timeline import state_at, state_spans
+The names below are imported on first use (PEP 562), so that importing one module of the
+package does not load the others."""
 
-__all__ = [
-    "DEFAULT_MATCH_RADIUS_M",
-    "Event",
-    "FIGURE_DIR",
-    "REPORT_NAME",
-    "RunFolderError",
-    "generate_report",
-    "load_run",
-    "match_targets",
-    "render_map_png",
-    "score_heights",
-    "state_at",
-    "state_spans",
-]
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "DEFAULT_MATCH_RADIUS_M": "planner.report.markdown",
+    "Event": "planner.report.data",
+    "FIGURE_DIR": "planner.report.markdown",
+    "REPORT_NAME": "planner.report.markdown",
+    "RunFolderError": "planner.report.data",
+    "generate_report": "planner.report.markdown",
+    "load_run": "planner.report.data",
+    "match_targets": "planner.report.height_score",
+    "render_map_png": "planner.report.map_plot",
+    "score_heights": "planner.report.height_score",
+    "state_at": "planner.report.timeline",
+    "state_spans": "planner.report.timeline",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name's module on first use (PEP 562)."""
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'planner.report' has no attribute {name!r}") from None
+    return getattr(importlib.import_module(module), name)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -20,6 +20,7 @@ from matplotlib.patches import Patch
 
 from planner.report.data import RunData, Series
 from planner.report.height_score import HeightScore
+from planner.report.md import truth_label
 from planner.report.plotting import (
     TimeAxis,
     alert_legend,
@@ -29,7 +30,6 @@ from planner.report.plotting import (
     robust_limits,
     save_png,
     time_panels,
-    truth_label,
 )
 from planner.report.timeline import (
     PASS_COLOURS,

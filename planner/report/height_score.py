@@ -13,7 +13,6 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 
 class Placed(Protocol):
@@ -91,6 +90,8 @@ def match_targets(estimated: Sequence[Placed], truth: Sequence[Placed], radius_m
         usable = np.isfinite(dist) & (dist <= radius_m)
         # Forbidden pairs cost more than any all-allowed assignment could.
         big = radius_m * (min(len(est), len(tru)) + 1) * 10.0
+        from scipy.optimize import linear_sum_assignment  # scipy.optimize: only when matching
+
         rows, cols = linear_sum_assignment(np.where(usable, dist, big))
         pairs = [TargetMatch(int(r), int(c), float(dist[r, c])) for r, c in zip(rows, cols, strict=True)
                  if usable[r, c]]

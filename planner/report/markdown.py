@@ -21,7 +21,6 @@ import numpy as np
 
 from perception.atomic_file import atomic_write_text
 from planner.report.data import RUN_FILES, Event, RunData, RunFolderError, load_run
-from planner.report.figures import figure_altitude, figure_heights, figure_tilt, figure_track
 from planner.report.height_score import HeightScore, Matching, match_targets, score_heights
 from planner.report.key_figures import key_figures, nan_stat
 from planner.report.md import cell, fmt, short, table
@@ -309,6 +308,8 @@ def generate_report(run_dir: Path | str, *, match_radius_m: float = DEFAULT_MATC
     ValueError
         For a match radius that is not positive.
     """
+    from planner.report.figures import figure_altitude, figure_heights, figure_tilt, figure_track  # matplotlib
+
     run = load_run(Path(run_dir))
     if run.empty:
         raise RunFolderError(run.root, f"not a run folder: it holds none of {', '.join(RUN_FILES)}; nothing to "

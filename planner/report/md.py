@@ -1,4 +1,4 @@
-"""Markdown building blocks of the dive report: values with units, safe table cells, tables."""
+"""Markdown building blocks of the dive report: values with units, safe table cells, tables, target names."""
 
 from __future__ import annotations
 
@@ -48,3 +48,8 @@ def table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
     out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     out += ["| " + " | ".join(r) + " |" for r in rows]
     return out + [""]
+
+
+def truth_label(target_id: str) -> str:
+    """How a true target is named in figures: ``T<id>`` for numeric ids, else the id itself."""
+    return f"T{target_id}" if target_id[:1].isdigit() or not target_id else target_id

@@ -124,11 +124,6 @@ def alert_legend(run: RunData) -> list[Line2D]:
     return [Line2D([], [], color="#c62828", ls="--", lw=1.2, label="failsafe / abort")] if alerts(run) else []
 
 
-def truth_label(target_id: str) -> str:
-    """How a true target is named in figures: ``T<id>`` for numeric ids, else the id itself."""
-    return f"T{target_id}" if target_id[:1].isdigit() or not target_id else target_id
-
-
 #: Label offsets tried in turn (points from the anchor, horizontal and vertical alignment).
 _LABEL_OFFSETS = ((6, 4, "left", "bottom"), (6, -4, "left", "top"), (-6, 4, "right", "bottom"),
                   (-6, -4, "right", "top"), (0, 10, "center", "bottom"), (0, -10, "center", "top"),
@@ -142,7 +137,7 @@ def place_labels(ax: Any, labels: Sequence[tuple[float, float, str, dict[str, An
     if not labels:
         return
     fig = ax.get_figure()
-    fig.canvas.draw()  # fixes limits, aspect and layout, so the boxes below are where they will be drawn
+    fig.draw_without_rendering()  # fixes limits, aspect and layout (no pixels): the boxes below are as drawn
     renderer = fig.canvas.get_renderer()
     occupied = [Bbox.from_bounds(px - 5, py - 5, 10, 10)
                 for px, py in ax.transData.transform(np.array([[x, y] for x, y, _, _ in labels]))]

@@ -26,8 +26,7 @@ from typing import Any
 import numpy as np
 
 from planner.report.data import RunData
-from planner.report.md import cell, fmt, table
-from planner.report.plotting import truth_label
+from planner.report.md import cell, fmt, table, truth_label
 
 
 def margin_lines(run: RunData) -> list[str]:

@@ -1,61 +1,61 @@
-"""Survey planning: area, sonar footprint, altitude/tilt choice, lanes, routing, the plan and its mission files."""
+"""Survey planning: area, sonar footprint, altitude/tilt choice, lanes, routing, the plan and its mission files.
 
-from planner.survey.altitudes import AltitudeChoice, choose_altitudes, constraint_values, shadow_length_m, shadow_slope
-from planner.survey.area import (
-    SurveyArea,
-    area_from_geojson,
-    area_to_geojson,
-    load_area,
-)
-from planner.survey.footprint import exact_footprint_body, footprint, seen_mask, swept_polygon
-from planner.survey.lawnmower import choose_heading, free_region, lane_pieces, plan_survey
-from planner.survey.mission_files import (
-    MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW,
-    MAV_CMD_NAV_WAYPOINT,
-    mission_items,
-    plan_geojson,
-    qgc_plan,
-    summary_text,
-    waypoints_text,
-    write_outputs,
-)
-from planner.survey.plan import LaneRun, PlanSummary, PlanWaypoint, SurveyPass, SurveyPlan, load_plan
-from planner.survey.plot import plot_plan
-from planner.survey.routing import Router, segments_cross
+The names below are imported on first use (PEP 562), so that importing one module of the
+package does not load the others."""
 
-__all__ = [
-    "AltitudeChoice",
-    "LaneRun",
-    "MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW",
-    "MAV_CMD_NAV_WAYPOINT",
-    "PlanSummary",
-    "PlanWaypoint",
-    "Router",
-    "SurveyArea",
-    "SurveyPass",
-    "SurveyPlan",
-    "area_from_geojson",
-    "area_to_geojson",
-    "choose_altitudes",
-    "choose_heading",
-    "constraint_values",
-    "exact_footprint_body",
-    "footprint",
-    "free_region",
-    "lane_pieces",
-    "load_area",
-    "load_plan",
-    "mission_items",
-    "plan_geojson",
-    "plan_survey",
-    "plot_plan",
-    "qgc_plan",
-    "seen_mask",
-    "segments_cross",
-    "shadow_length_m",
-    "shadow_slope",
-    "summary_text",
-    "swept_polygon",
-    "waypoints_text",
-    "write_outputs",
-]
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "AltitudeChoice": "planner.survey.altitudes",
+    "LaneRun": "planner.survey.plan",
+    "MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW": "planner.survey.mission_files",
+    "MAV_CMD_NAV_WAYPOINT": "planner.survey.mission_files",
+    "PlanSummary": "planner.survey.plan",
+    "PlanWaypoint": "planner.survey.plan",
+    "Router": "planner.survey.routing",
+    "SurveyArea": "planner.survey.area",
+    "SurveyPass": "planner.survey.plan",
+    "SurveyPlan": "planner.survey.plan",
+    "area_from_geojson": "planner.survey.area",
+    "area_to_geojson": "planner.survey.area",
+    "choose_altitudes": "planner.survey.altitudes",
+    "choose_heading": "planner.survey.lawnmower",
+    "constraint_values": "planner.survey.altitudes",
+    "exact_footprint_body": "planner.survey.footprint",
+    "footprint": "planner.survey.footprint",
+    "free_region": "planner.survey.lawnmower",
+    "lane_pieces": "planner.survey.lawnmower",
+    "load_area": "planner.survey.area",
+    "load_plan": "planner.survey.plan",
+    "mission_items": "planner.survey.mission_files",
+    "plan_geojson": "planner.survey.mission_files",
+    "plan_survey": "planner.survey.lawnmower",
+    "plot_plan": "planner.survey.plot",
+    "qgc_plan": "planner.survey.mission_files",
+    "seen_mask": "planner.survey.footprint",
+    "segments_cross": "planner.survey.routing",
+    "shadow_length_m": "planner.survey.altitudes",
+    "shadow_slope": "planner.survey.altitudes",
+    "summary_text": "planner.survey.mission_files",
+    "swept_polygon": "planner.survey.footprint",
+    "waypoints_text": "planner.survey.mission_files",
+    "write_outputs": "planner.survey.mission_files",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name's module on first use (PEP 562)."""
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'planner.survey' has no attribute {name!r}") from None
+    return getattr(importlib.import_module(module), name)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -41,7 +41,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-import casadi as ca
 import numpy as np
 
 from perception.geometry.shadow import shadow_end_slant_m, shadow_scale
@@ -206,6 +205,8 @@ def _starts(settings: Settings) -> list[list[float]]:
 
 
 def _solve_main(settings: Settings) -> np.ndarray | None:
+    import casadi as ca  # the NLP solver: loaded when a survey is planned
+
     x = ca.SX.sym("x", 5)
     tau = ca.SX.sym("tau")
     cons = _constraints(x, settings, ca.sqrt, ca.sin)
@@ -245,6 +246,8 @@ def _centre_tilts(settings: Settings, x0: np.ndarray, tau: float) -> np.ndarray 
     """Second stage: among the choices that keep the optimal resolution ``tau``, the one
     whose tilts put the middle of the design shadow on the beam axis (the objective does
     not depend on the tilts otherwise, so they would be arbitrary within the beam)."""
+    import casadi as ca  # the NLP solver: loaded when a survey is planned
+
     x = ca.SX.sym("x", 5)
     cons = _constraints(x, settings, ca.sqrt, ca.sin)
     terms = _objective_terms(x, settings, ca.sqrt)
@@ -281,6 +284,8 @@ SAFETY = ("clearance", "depth_limit", "surface", "dh_vs_filter")
 def _phase1(settings: Settings, hard: tuple[str, ...]) -> list[tuple[str, float]] | None:
     """Minimise the summed slack of the soft constraints with ``hard`` ones kept; the
     constraints still short at the best start, or None when even that fails."""
+    import casadi as ca  # the NLP solver: loaded when a survey is planned
+
     x = ca.SX.sym("x", 5)
     cons = _constraints(x, settings, ca.sqrt, ca.sin)
     soft = [i for i, (n, _) in enumerate(cons) if n not in hard]

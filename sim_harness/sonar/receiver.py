@@ -14,6 +14,7 @@ import cv2
 import numpy as np
 
 from sim_harness.sonar.physics import SonarPhysics
+from sim_harness.sonar.seabed import constant_f32
 
 #: Largest value of the uint16 outputs.
 UINT16_FULL_SCALE = 65535.0
@@ -26,7 +27,7 @@ def power_to_uint8(power: np.ndarray, *, display_range_db: float = 80.0) -> np.n
     give 0 (``display_range_db`` 80 is the ARIS SDK's mapping).
     """
     p = np.asarray(power, dtype=np.float32)
-    log = cv2.log(np.maximum(p, np.float32(1.0)))
+    log = cv2.log(np.maximum(p, constant_f32(1.0, p.shape)))
     scale = 10.0 / math.log(10.0) * 255.0 / display_range_db
     return np.asarray(cv2.convertScaleAbs(log, alpha=scale), dtype=np.uint8)
 
@@ -84,8 +85,9 @@ class NoiseBanks:
             self._speckle = bank_rng.standard_gamma(looks, self.size, dtype=np.float32) / np.float32(looks)
         else:
             self._speckle = np.ones(0, dtype=np.float32)
-        self._noise = bank_rng.standard_exponential(self.size, dtype=np.float32)
+        # the mean folded in once (the same float32 product a frame would take of its slice)
         self._noise_mean = float(noise_mean)
+        self._noise = np.float32(self._noise_mean) * bank_rng.standard_exponential(self.size, dtype=np.float32)
         if math.isfinite(texture_shape):
             nu = float(texture_shape)
             self._texture = bank_rng.standard_gamma(nu, self.size, dtype=np.float32) / np.float32(nu)
@@ -105,7 +107,7 @@ class NoiseBanks:
             out = np.array(clean, dtype=np.float32)
         if self._noise_mean > 0:
             o = int(rng.integers(0, n - size + 1))
-            noise = np.float32(self._noise_mean) * self._noise[o:o + size].reshape(clean.shape)
+            noise = self._noise[o:o + size].reshape(clean.shape)  # mean x exponential
         else:
             noise = None
         if self._texture.size:

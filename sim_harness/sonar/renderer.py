@@ -21,7 +21,8 @@ and truth in :mod:`sim_harness.sonar.targets`):
 3. two-way absorption, gain and time-varying gain (``tvg_db_per_decade * log10(r)`` plus
    the absorption when ``tvg_absorption``);
 4. range blur by the pulse (Gaussian, FWHM = c * pulse / 2) and leakage into neighbouring
-   beams (side lobes, ``sidelobe_db`` for neighbours 1, 2, 3, ...);
+   beams (side lobes, ``sidelobe_db`` for neighbours 1, 2, 3, ...), filtered on the rows
+   that hold echo (and a kernel's half length around them; the rest stays zero);
 5. multiplicative speckle, gamma distributed with ``speckle_looks`` looks and mean 1 (times
    a gamma texture for K-distributed power when ``physics.speckle_texture_shape`` is finite),
    and an additive noise floor (exponential power of mean ``noise_floor_db``); near-range
@@ -209,6 +210,28 @@ class SonarRenderer:
             physics=cfg.physics,
         )
 
+    def _blur(self, raw: np.ndarray, band: list[tuple[int, int]]) -> np.ndarray:
+        """Range blur and side lobes of ``raw`` (float32, (n_samples, n_beams)), zero outside
+        the rows ``band`` [(start, stop), ...] that hold its echo, into a new array.
+
+        Only the rows within a kernel's half length of the echo are filtered: farther rows
+        are zero, and the rows filtered see the same zeros beyond their edge as the whole
+        image would (``BORDER_CONSTANT``), so the result is the whole image's, bit for bit.
+        """
+        band = [(a, b) for a, b in band if b > a]
+        if not band:
+            return np.zeros_like(raw)
+        half = self._range_kernel.size // 2
+        lo = max(min(a for a, _ in band) - half, 0)
+        hi = min(max(b for _, b in band) + half, raw.shape[0])
+        clean = np.zeros_like(raw)
+        part = clean[lo:hi]
+        out = cv2.sepFilter2D(raw[lo:hi], cv2.CV_32F, self._beam_kernel, self._range_kernel, dst=part,
+                              borderType=cv2.BORDER_CONSTANT)
+        if out is not part:  # OpenCV wrote elsewhere (it should not for a contiguous float32 view)
+            part[...] = out
+        return clean
+
     # ------------------------------------------------------------------ public API
     def render(
         self, pose: SonarPose, timestamp_s: float, *, altitude_m: float | None = None
@@ -337,11 +360,11 @@ class SonarRenderer:
         labels[highlight] = Label.HIGHLIGHT
 
         raw = seabed  # gains are folded into the footprint and the target weights
+        band = [(b.row0, b.row0 + b.span.shape[0]) for b in branches]
         if casts:
             target_power.add_to(raw)
-        clean = cv2.sepFilter2D(
-            raw, cv2.CV_32F, self._beam_kernel, self._range_kernel, borderType=cv2.BORDER_CONSTANT
-        )
+            band.append(target_power.rows(n_b))
+        clean = self._blur(raw, band)
         power = blank_near_rows(self._noise.apply(clean, timestamp_s), self._range, cfg.physics.blank_range_m)
         image = power_to_image(power, cfg.physics)
         truths = target_truths(geo, casts, runs, self._sampling)

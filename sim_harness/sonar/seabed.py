@@ -12,7 +12,8 @@ range cell and RELIEF_BEAM_STRIDE-th beam, interpolated).
 Geometry and conventions in :mod:`sim_harness.sonar.geometry`. Heavy arithmetic runs in
 float32 on (range cells x beams) arrays; the elevation of each cell edge uses a polynomial
 arccos (:func:`arccos01_f32`), and the seabed texture is sampled on every few range cells
-(TEXTURE_SAMPLE_CELLS) and interpolated.
+(TEXTURE_SAMPLE_CELLS) and interpolated. Large arrays are bounded against arrays of the
+bound (:func:`constant_f32`), which numpy does several times faster than against a scalar.
 """
 
 from __future__ import annotations
@@ -41,6 +42,26 @@ _ACOS_COEFFS = (-0.0012624911, 0.0066700901, -0.0170881256, 0.0308918810,
                 -0.0501743046, 0.0889789874, -0.2145988016, 1.5707963050)
 
 
+@functools.lru_cache(maxsize=16)
+def _constant_bank(value: float, size: int) -> np.ndarray:
+    """``size`` float32 copies of ``value``, read-only."""
+    out = np.full(size, value, dtype=np.float32)
+    out.flags.writeable = False
+    return out
+
+
+def constant_f32(value: float | np.floating, shape: tuple[int, ...]) -> np.ndarray:
+    """A read-only float32 array of ``shape`` holding ``value`` (C-contiguous; cached).
+
+    numpy's float32 ``maximum``/``minimum`` against a scalar run a loop several times
+    slower than against an array of the same shape, with the same results (both are
+    exact), so the bounds of large arrays are such arrays, taken from a cached bank.
+    """
+    size = math.prod(shape)
+    bank = _constant_bank(float(np.float32(value)), 1 << max(size - 1, 0).bit_length())
+    return bank[:size].reshape(shape)
+
+
 def arccos01_f32(x: np.ndarray) -> np.ndarray:
     """``arccos(x)`` for float32 ``x`` in [0, 1] (any shape), float32, rad.
 
@@ -57,7 +78,7 @@ def arccos01_f32(x: np.ndarray) -> np.ndarray:
         out *= x
         out += f32(a)
     root = np.subtract(f32(1.0), x)
-    np.maximum(root, f32(0.0), out=root)
+    np.maximum(root, constant_f32(0.0, root.shape), out=root)
     np.sqrt(root, out=root)
     out *= root
     return out
@@ -190,7 +211,7 @@ def _texture_gain(
     r_cos *= f32(0.5) * r
     r_sin = r_cos * r_cos
     np.subtract(r * r, r_sin, out=r_sin)
-    np.maximum(r_sin, f32(0.0), out=r_sin)
+    np.maximum(r_sin, constant_f32(0.0, r_sin.shape), out=r_sin)
     np.sqrt(r_sin, out=r_sin)
     cphi, sphi = np.cos(geo.phi)[:, None], np.sin(geo.phi)[:, None]
     a_vec = cphi * geo.horiz + sphi * geo.rot[:, 2]
@@ -212,9 +233,9 @@ def _texture_gain(
         return np.repeat(gain, n, axis=0)
     # upper == lower + 1: the differences between neighbouring nodes, gathered once
     step = gain[1:] - gain[:-1]
-    out = step[lower]
+    out = np.take(step, lower, axis=0)  # whole rows: copies, not an element-wise gather
     out *= weight
-    out += gain[lower]
+    out += np.take(gain, lower, axis=0)
     return out
 
 
@@ -278,17 +299,18 @@ def seabed_branches(
             coarse = np.stack([corr, gn_r * d[..., 0] + ge_r * d[..., 1]]) @ to_all  # (2, n_c, n_beams)
             shift, extra_cos = _interp_rows(coarse.astype(f32), RELIEF_STRIDE, n_e)
             ratio = scale[None, :] / (edges.astype(f32)[:, None] + shift)
-        np.minimum(ratio, f32(1.0), out=ratio)
+        np.minimum(ratio, constant_f32(1.0, ratio.shape), out=ratio)
         acos = arccos01_f32(ratio)
         phi = geo.phi.astype(f32)
         edges_e = phi + acos if sign > 0 else phi - acos
         ha = f32(half_aperture_rad)
-        np.clip(edges_e, -ha, ha, out=edges_e)
+        np.maximum(edges_e, constant_f32(-ha, edges_e.shape), out=edges_e)  # clip to the aperture
+        np.minimum(edges_e, constant_f32(ha, edges_e.shape), out=edges_e)
         # along a branch the elevation moves away from phi as the range grows
         near_e, far_e = edges_e[:-1], edges_e[1:]
         lo, hi = (near_e, far_e) if sign > 0 else (far_e, near_e)
         span = hi - lo
-        np.maximum(span, f32(0.0), out=span)
+        np.maximum(span, constant_f32(0.0, span.shape), out=span)
         mid = lo + hi
         mid *= f32(0.5)
         m2 = mid * mid
@@ -299,7 +321,8 @@ def seabed_branches(
             extra = extra_cos[:-1] + extra_cos[1:]
             extra *= f32(0.5 / geo.c_norm)
             cos_inc += extra
-            np.clip(cos_inc, f32(0.0), f32(1.0), out=cos_inc)
+            np.maximum(cos_inc, constant_f32(0.0, cos_inc.shape), out=cos_inc)  # clip to [0, 1]
+            np.minimum(cos_inc, constant_f32(1.0, cos_inc.shape), out=cos_inc)
         if phys.elevation_pattern != "gaussian":
             edge_db = pattern_coeff * 10.0 / math.log(10.0)
             power = elevation_gain(mid, half_aperture_rad=half_aperture_rad, edge_db=edge_db, physics=phys)

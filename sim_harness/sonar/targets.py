@@ -47,6 +47,12 @@ class TargetPower:
     first_cell: int
     power: FloatArray
 
+    def rows(self, n_beams: int) -> tuple[int, int]:
+        """The image rows [start, stop) the echo touches (of an image ``n_beams`` wide)."""
+        if self.power.size == 0:
+            return 0, 0
+        return self.first_cell // n_beams, (self.first_cell + self.power.size - 1) // n_beams + 1
+
     def add_to(self, image: np.ndarray) -> None:
         """Add the echo into the C-contiguous (n_samples, n_beams) float32 ``image``, in place
         (summed in float64, rounded once to float32)."""

@@ -13,12 +13,8 @@ from hypothesis import strategies as st
 from perception.errors import GeometryError
 from perception.geometry import insonified_band
 from perception.mapping.builder import MosaicBuilder, masks_from_shadows
-from perception.mapping.mosaic import (
-    MosaicConfig,
-    TiledMosaic,
-    placement_from_frame,
-    project_frame,
-)
+from perception.mapping.mosaic import MosaicConfig, TiledMosaic, placement_from_frame
+from perception.mapping.projection import project_frame
 from perception.mapping.registration import DriftEstimator, RegistrationConfig, RegistrationResult, measure_shift
 from perception.shadows.measurement.measure import ShadowMeasurement
 from perception.sonar_io.beams import aris3000_128

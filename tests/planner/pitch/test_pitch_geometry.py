@@ -21,6 +21,7 @@ from planner.pitch.aperture import (
     aperture_interval_rad,
     depression_interval_rad,
     point_elevation_rad,
+    shadow_and_whole_intervals_rad,
     shadow_geometry,
     shadow_margins_rad,
 )
@@ -202,3 +203,27 @@ def test_truth_visibility_agrees_with_the_band() -> None:
     lo, hi = depression_interval_rad(g, half_aperture_rad=APERTURE / 2)
     for d, expect in [(0.5 * float(lo[0] + hi[0]), True), (float(lo[0]) - 0.01, False), (float(hi[0]) + 0.01, False)]:
         assert bool(whole_shadow_visible(g, tilt_rad=d + 0.03, pitch_rad=0.03, config=cfg)[0]) is expect
+
+
+def test_shadow_and_whole_intervals_are_the_two_depression_intervals(rng: np.random.Generator) -> None:
+    """The serviceability check takes both depression intervals from one call (the shared
+    rays once): each must be the intersection of its rays' own aperture intervals, exactly
+    (top/end ray, far foot, seabed at the start range; and the near foot for the whole)."""
+    along = rng.uniform(-2.0, 16.0, (7, 1)) - 0.5 * np.arange(11) * 0.2
+    cross = rng.uniform(-2.0, 2.0, (7, 1))
+    g = shadow_geometry(along, cross, rng.uniform(0.0, 0.4, (7, 1)), rng.uniform(0.0, 1.0, (7, 1)), np.full(11, 1.2))
+    for half in (math.radians(5.0), math.radians(7.0)):
+        rays = [aperture_interval_rad(g.top_along_m, g.top_cross_m, g.altitude_m - g.height_m, half_aperture_rad=half)]
+        rays += [aperture_interval_rad(x, y, g.altitude_m, half_aperture_rad=half)
+                 for x, y in ((g.top_along_m, g.top_cross_m), (g.start_along_m, g.start_cross_m),
+                              (g.base_along_m, g.base_cross_m))]
+        lo = np.maximum.reduce([r[0] for r in rays])
+        hi = np.minimum.reduce([r[1] for r in rays])
+        lo_s, hi_s = np.maximum.reduce([r[0] for r in rays[:3]]), np.minimum.reduce([r[1] for r in rays[:3]])
+        (got_lo, got_hi), (got_lo_s, got_hi_s) = shadow_and_whole_intervals_rad(g, half_aperture_rad=half)
+        for got, want in ((got_lo, lo), (got_hi, hi), (got_lo_s, lo_s), (got_hi_s, hi_s)):
+            np.testing.assert_array_equal(got, want)
+        for got, want in zip(depression_interval_rad(g, half_aperture_rad=half, include_base=False), (lo_s, hi_s),
+                             strict=True):
+            np.testing.assert_array_equal(got, want)
+        assert not np.array_equal(lo, lo_s)  # the near foot matters somewhere: the test sees both

@@ -242,3 +242,34 @@ def test_no_limit_cycle_without_disturbance(rng: np.random.Generator) -> None:
     passed = sum(1 for t in sc.targets if t.along_m < quiet.speed_m_s * quiet.duration_s)
     assert tilt_sign_changes(res.command_tilt_rad, deadband_rad=math.radians(0.05)) <= 2 * max(passed, 1)
     assert res.visible_frames == res.scored_frames
+
+
+
+@settings(max_examples=25, deadline=None)
+@given(states=st.lists(st.tuples(st.floats(0.5, 3.0), st.floats(-0.08, 0.08), st.floats(0.0, 1.5),
+                                 st.floats(-0.3, 1.4), st.lists(shadow_st, max_size=6)), min_size=2, max_size=4))
+def test_buffered_solve_is_a_plain_casadi_call(states: list) -> None:
+    """The loop solves its QP on arrays casadi reads in place (``PitchLoop._solve``): each
+    step's solution must be casadi's ordinary call on the same problem, and nothing of one
+    step may stay in the next (a fresh loop gives the same command)."""
+    import casadi as ca
+
+    cfg = pitch_config(horizon_steps=6, max_targets=3)
+    kept = PitchLoop(cfg, LIMITS)
+    solve = kept._solve
+    problems: list[tuple] = []
+
+    def recorded(*problem: np.ndarray) -> tuple[np.ndarray, bool]:
+        problems.append(tuple(np.array(p) for p in problem))
+        return solve(*problem)
+
+    kept._solve = recorded  # type: ignore[method-assign]
+    for alt, pitch, speed, tilt, shadows in states + states[:1]:
+        state = PitchState(altitude_m=alt, vehicle_pitch_rad=pitch, speed_m_s=speed, current_tilt_rad=tilt)
+        cmd = kept.step(state, shadows)
+        assert repr(cmd) == repr(PitchLoop(cfg, LIMITS).step(state, shadows))  # repr: NaN margins compare
+        hess_nz, g, lba, uba, lbx, ubx = problems[-1]
+        plain = kept._solver(h=ca.DM(kept._hess_sp, hess_nz), g=g, a=kept._a_dm, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
+        x, ok = solve(hess_nz, g, lba, uba, lbx, ubx)
+        assert ok == bool(kept._solver.stats()["success"])
+        assert np.array_equal(x, np.asarray(plain["x"]).ravel())
