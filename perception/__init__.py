@@ -16,8 +16,7 @@ importing one data type (``perception.sonar_io.frame``) does not load the whole 
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from perception.lazy_exports import lazy_exports
 
 _EXPORTS = {
     "SonarFrame": "perception.sonar_io",
@@ -41,16 +40,4 @@ _EXPORTS = {
 }
 
 __all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    """Import a public name's sub-package on first use (PEP 562)."""
-    try:
-        module = _EXPORTS[name]
-    except KeyError:
-        raise AttributeError(f"module 'perception' has no attribute {name!r}") from None
-    return getattr(importlib.import_module(module), name)
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

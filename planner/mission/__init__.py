@@ -5,8 +5,7 @@ package does not load the others."""
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from perception.lazy_exports import lazy_exports
 
 _EXPORTS = {
     "DirectorySonarSource": "planner.mission.sonar_sources",
@@ -28,16 +27,4 @@ _EXPORTS = {
 }
 
 __all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    """Import a public name's module on first use (PEP 562)."""
-    try:
-        module = _EXPORTS[name]
-    except KeyError:
-        raise AttributeError(f"module 'planner.mission' has no attribute {name!r}") from None
-    return getattr(importlib.import_module(module), name)
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

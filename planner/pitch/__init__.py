@@ -15,8 +15,7 @@ package does not load the others."""
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from perception.lazy_exports import lazy_exports
 
 _EXPORTS = {
     "BEFORE_WINDOW_START": "planner.pitch.types",
@@ -56,16 +55,4 @@ _EXPORTS = {
 }
 
 __all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    """Import a public name's module on first use (PEP 562)."""
-    try:
-        module = _EXPORTS[name]
-    except KeyError:
-        raise AttributeError(f"module 'planner.pitch' has no attribute {name!r}") from None
-    return getattr(importlib.import_module(module), name)
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
