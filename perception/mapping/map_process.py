@@ -194,8 +194,20 @@ class SurveyMapProcess:
         self._child.close()
 
 
+#: OpenCV threads in the map process. The process is the parallelism (it measures and maps
+#: while the controller flies and the next pings render); OpenCV's pool splitting one
+#: frame's small remaps and blurs over the cores wakes and syncs threads for each call,
+#: about 0.7 s of system CPU on the default dive, CPU the other two processes then lack.
+#: Answers are the same with any number of threads
+#: (tests/perception/mapping/test_shortcuts.py).
+MAP_OPENCV_THREADS = 1
+
+
 def main() -> None:
     """The child process (:func:`perception.child_process.child_streams`)."""
+    import cv2  # this process's own OpenCV; the parent's is left as it is
+
+    cv2.setNumThreads(MAP_OPENCV_THREADS)
     serve(*child_streams())
 
 

@@ -17,7 +17,6 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
-from matplotlib.transforms import Bbox
 
 from perception.atomic_file import atomic_write
 from planner.report.data import Event, RunData
@@ -139,18 +138,17 @@ def place_labels(ax: Any, labels: Sequence[tuple[float, float, str, dict[str, An
     fig = ax.get_figure()
     fig.draw_without_rendering()  # fixes limits, aspect and layout (no pixels): the boxes below are as drawn
     renderer = fig.canvas.get_renderer()
-    occupied = [Bbox.from_bounds(px - 5, py - 5, 10, 10)
-                for px, py in ax.transData.transform(np.array([[x, y] for x, y, _, _ in labels]))]
+    points = ax.transData.transform(np.array([[x, y] for x, y, _, _ in labels]))
+    # Every placed box as one row (x0, y0, x1, y1), display pixels: the points, then the labels.
+    occupied = np.empty((len(labels) * 2, 4))
+    occupied[: len(labels)] = np.column_stack([points - 5.0, (points - 5.0) + 10.0])  # as Bbox.from_bounds
+    n_occupied = len(labels)
     for x, y, text, style in labels:
         best: tuple[float, Any, Any] | None = None
         for dx, dy, ha, va in _LABEL_OFFSETS:
             ann = ax.annotate(text, (x, y), xytext=(dx, dy), textcoords="offset points", ha=ha, va=va, **style)
             box = ann.get_window_extent(renderer)
-            cover = 0.0
-            for other in occupied:
-                inter = Bbox.intersection(box, other)
-                if inter is not None:
-                    cover += inter.width * inter.height
+            cover = covered_area(box.extents, occupied[:n_occupied])
             if best is None or cover < best[0]:
                 if best is not None:
                     best[1].remove()
@@ -160,7 +158,23 @@ def place_labels(ax: Any, labels: Sequence[tuple[float, float, str, dict[str, An
             if cover == 0.0:
                 break
         if best is not None:
-            occupied.append(best[2])
+            occupied[n_occupied] = best[2].extents
+            n_occupied += 1
+
+
+def covered_area(box: Sequence[float], others: np.ndarray) -> float:
+    """Area of ``box`` (x0, y0, x1, y1) that the boxes ``others`` (rows of x0, y0, x1, y1)
+    cover, summed over them in their order (an area covered twice counts twice); edges
+    that only touch cover nothing."""
+    x0, y0, x1, y1 = min(box[0], box[2]), min(box[1], box[3]), max(box[0], box[2]), max(box[1], box[3])
+    lo_x, hi_x = np.minimum(others[:, 0], others[:, 2]), np.maximum(others[:, 0], others[:, 2])
+    lo_y, hi_y = np.minimum(others[:, 1], others[:, 3]), np.maximum(others[:, 1], others[:, 3])
+    width = np.minimum(hi_x, x1) - np.maximum(lo_x, x0)
+    height = np.minimum(hi_y, y1) - np.maximum(lo_y, y0)
+    cover = 0.0
+    for area in (width * height)[(width > 0.0) & (height > 0.0)]:
+        cover += float(area)  # in order, one at a time: the same sum as box by box
+    return cover
 
 
 def robust_limits(values: Sequence[np.ndarray], pad: float = 0.15) -> tuple[float, float] | None:

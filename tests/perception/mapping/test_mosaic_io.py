@@ -68,6 +68,23 @@ def test_geotiff_georeference_reads_back_in_gdal(built, tmp_path):
         assert np.nanmax(intensity) > 100
 
 
+def test_geotiff_compressed_on_several_threads_is_the_same_file(built, tmp_path, monkeypatch):
+    """The strips compressed in parallel come out byte for byte as on one thread, and GDAL reads
+    back every cell (a mosaic of many strips: 16 rows each)."""
+    import perception.mapping.products as products
+
+    raster = map_raster(built.mosaic, [TARGET])
+    assert raster.intensity.shape[0] > 64  # several strips per band
+    files = []
+    for workers in (1, 4):
+        monkeypatch.setattr(products, "GEOTIFF_WORKERS", workers)
+        files.append(write_geotiff(tmp_path / f"mosaic_{workers}.tif", raster, ORIGIN).read_bytes())
+    assert files[0] == files[1]
+    with rasterio.open(tmp_path / "mosaic_4.tif") as ds:
+        assert np.array_equal(ds.read(1), raster.intensity.astype(np.float32), equal_nan=True)
+        assert np.array_equal(ds.read(2), raster.height_m.astype(np.float32), equal_nan=True)
+
+
 def test_png_world_file_places_the_pixels(built, tmp_path):
     raster = map_raster(built.mosaic)
     png, pgw, prj, aux = write_png_with_world_file(tmp_path / "mosaic.png", raster, ORIGIN)

@@ -297,6 +297,39 @@ def test_builder_with_registration_matches_itself_rebuilt(seabed):
     assert (first.drift.north_m, first.drift.east_m) == (second.drift.north_m, second.drift.east_m)
 
 
+@pytest.mark.parametrize("threads", [2, 4])
+def test_map_and_heights_on_one_opencv_thread_are_those_on_several(seabed, threads):
+    """The map process runs OpenCV on one thread (perception.mapping.map_process): the mosaic,
+    its registration and the frames' shadows come out the same as on several."""
+    from perception.heights.detect import detect_shadows
+
+    frames = [render(seabed, res_m=RES_M, north_m=3.0 + 0.05 * k, east_m=6.0, altitude_m=1.0, heading_rad=0.0,
+                     tilt_rad=math.radians(25), range_m=np.linspace(0.7, 3.0, 400), azimuth_rad=AZIMUTH_RAD,
+                     timestamp_s=0.1 * k, nav_offset_m=(0.0, 0.002 * k)) for k in range(24)]
+    cfg = RegistrationConfig(reference_lag_frames=6, stack_frames=3, every_n_frames=2)
+    before = cv2.getNumThreads()
+    results = []
+    try:
+        for n in (1, threads):
+            cv2.setNumThreads(n)
+            projection._axes.cache_clear()
+            builder = MosaicBuilder(MosaicConfig(), cfg)
+            shadows = []
+            for frame in frames:
+                builder.add_frame(frame)
+                shadows.append(detect_shadows(frame.image, range_m=frame.range_m,
+                                              beam_azimuth_rad=frame.beam_azimuth_rad))
+            results.append((builder, shadows))
+    finally:
+        cv2.setNumThreads(before)
+    (one, one_shadows), (many, many_shadows) = results
+    for x, y in zip(one.mosaic.raster(), many.mosaic.raster(), strict=True):
+        assert np.array_equal(np.asarray(x), np.asarray(y), equal_nan=True)
+    assert one.drift is not None and many.drift is not None
+    assert (one.drift.north_m, one.drift.east_m) == (many.drift.north_m, many.drift.east_m)
+    assert repr(one_shadows) == repr(many_shadows)
+
+
 def test_heights_layer_drawn_per_target_is_the_plain_one():
     rng = np.random.default_rng(4)
     targets = []
