@@ -47,6 +47,16 @@ F32 = NDArray[np.float32]
 U8 = NDArray[np.uint8]
 
 
+def set_threads(n: int) -> None:
+    """OpenCV's worker threads for this process (1: every call on the caller's thread)."""
+    cv2.setNumThreads(int(n))
+
+
+def threads() -> int:
+    """OpenCV's worker threads for this process."""
+    return int(cv2.getNumThreads())
+
+
 def _check(image: np.ndarray, name: str, dtypes: tuple[type, ...], ndim: int = 2) -> None:
     if image.dtype.type not in dtypes:
         allowed = " or ".join(np.dtype(d).name for d in dtypes)

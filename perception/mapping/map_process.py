@@ -205,9 +205,9 @@ MAP_OPENCV_THREADS = 1
 
 def main() -> None:
     """The child process (:func:`perception.child_process.child_streams`)."""
-    import cv2  # this process's own OpenCV; the parent's is left as it is
+    from perception import imaging  # this process's own OpenCV; the parent's is left as it is
 
-    cv2.setNumThreads(MAP_OPENCV_THREADS)
+    imaging.set_threads(MAP_OPENCV_THREADS)
     serve(*child_streams())
 
 

@@ -307,11 +307,13 @@ def test_map_and_heights_on_one_opencv_thread_are_those_on_several(seabed, threa
                      tilt_rad=math.radians(25), range_m=np.linspace(0.7, 3.0, 400), azimuth_rad=AZIMUTH_RAD,
                      timestamp_s=0.1 * k, nav_offset_m=(0.0, 0.002 * k)) for k in range(24)]
     cfg = RegistrationConfig(reference_lag_frames=6, stack_frames=3, every_n_frames=2)
-    before = cv2.getNumThreads()
+    from perception import imaging
+
+    before = imaging.threads()
     results = []
     try:
         for n in (1, threads):
-            cv2.setNumThreads(n)
+            imaging.set_threads(n)
             projection._axes.cache_clear()
             builder = MosaicBuilder(MosaicConfig(), cfg)
             shadows = []
@@ -321,7 +323,7 @@ def test_map_and_heights_on_one_opencv_thread_are_those_on_several(seabed, threa
                                               beam_azimuth_rad=frame.beam_azimuth_rad))
             results.append((builder, shadows))
     finally:
-        cv2.setNumThreads(before)
+        imaging.set_threads(before)
     (one, one_shadows), (many, many_shadows) = results
     for x, y in zip(one.mosaic.raster(), many.mosaic.raster(), strict=True):
         assert np.array_equal(np.asarray(x), np.asarray(y), equal_nan=True)
