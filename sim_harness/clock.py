@@ -16,6 +16,13 @@ real time, ``speedup=10.0`` ten times real time).
 
 Threads that are not participants may also wait on the clock; they never hold it back.
 
+Order within a time step: participants that a step makes due are let go by *rank*, the
+lowest first, and each rank runs until it waits again before the next is let go. A link's
+I/O thread (rank -1, :data:`RANK_READER`) so reads what the simulator sent at this step
+before the controller (rank 0) acts on it: who runs first never depends on the scheduler,
+and a dry run repeats step for step. A due participant that is still waiting for its rank
+is not poked by :meth:`notify`; it checks its predicate when its rank is let go.
+
 Predicates passed to :meth:`SimClock.wait_for` are evaluated by the waiting thread
 outside the clock's lock. A thread that changes what a predicate reads (e.g. a socket
 reader that stores a received message) calls :meth:`SimClock.notify` afterwards, without
@@ -36,6 +43,10 @@ from sim_harness.errors import ClockStopped, LockstepStall, SimConfigError
 #: Wall seconds the simulator waits for a running participant before it gives up.
 DEFAULT_STALL_TIMEOUT_S = 60.0
 
+#: Rank of a thread that reads what the simulator sent (a link's socket reader): let go
+#: before the controllers (rank 0) in every time step.
+RANK_READER = -1
+
 
 @dataclass
 class _Participant:
@@ -44,9 +55,19 @@ class _Participant:
 
     name: str
     wake: threading.Condition
+    rank: int = 0
     waiting: bool = False
     deadline_s: float = float("inf")
     poked: bool = False
+    released: bool = False  # let go by advance_to (its rank's turn in the step)
+
+    def due_unreleased(self, now_s: float) -> bool:
+        """Due at ``now_s`` but its rank not yet let go."""
+        return self.waiting and self.deadline_s <= now_s and not self.released
+
+    def idle(self, now_s: float) -> bool:
+        """Waiting on the clock, neither due nor poked."""
+        return self.waiting and not self.poked and self.deadline_s > now_s
 
 
 class SimClock:
@@ -106,14 +127,15 @@ class SimClock:
         return self._stopped
 
     # -- participants --------------------------------------------------------------
-    def register(self, name: str | None = None) -> None:
-        """Register the calling thread as a lockstep participant (it starts running)."""
+    def register(self, name: str | None = None, *, rank: int = 0) -> None:
+        """Register the calling thread as a lockstep participant (it starts running);
+        ``rank`` orders the participants a time step makes due (lowest first)."""
         ident = threading.get_ident()
         with self._cond:
             if ident in self._participants:
                 raise SimConfigError("thread is already a participant", key="register")
             self._participants[ident] = _Participant(name or threading.current_thread().name,
-                                                     threading.Condition(self._lock))
+                                                     threading.Condition(self._lock), rank=int(rank))
 
     def unregister(self) -> None:
         """Remove the calling thread from the participants (no-op if it is not one)."""
@@ -122,9 +144,9 @@ class SimClock:
             self._cond.notify_all()
 
     @contextmanager
-    def participant(self, name: str | None = None) -> Iterator[SimClock]:
+    def participant(self, name: str | None = None, *, rank: int = 0) -> Iterator[SimClock]:
         """Context manager: the calling thread is a lockstep participant inside it."""
-        self.register(name)
+        self.register(name, rank=rank)
         try:
             yield self
         finally:
@@ -182,11 +204,13 @@ class SimClock:
                     wake_s = deadline_s if poll_s is None else min(deadline_s, self._now_s + poll_s)
                     me.deadline_s = wake_s
                     me.waiting = True
+                    me.released = False
                     self._cond.notify_all()  # the simulator may go on
-                    while not self._stopped and self._now_s < wake_s and not me.poked:
+                    while not self._stopped and not me.released and not me.poked:
                         me.wake.wait()
                     me.waiting = False
                     me.poked = False
+                    me.released = False
         finally:
             with self._cond:
                 if me is not None:
@@ -198,6 +222,8 @@ class SimClock:
         """Ask every waiting thread to re-check its predicate before time moves on."""
         with self._cond:
             for p in self._participants.values():
+                if p.due_unreleased(self._now_s):
+                    continue  # its rank's turn comes; it checks then
                 p.poked = True
                 p.wake.notify_all()
             self._generation += 1
@@ -205,11 +231,9 @@ class SimClock:
             self._cond.notify_all()
 
     # -- advancing (simulator side) ------------------------------------------------
-    def _all_participants_idle(self) -> bool:
+    def _idle_below(self, rank: int | None) -> bool:
         now = self._now_s
-        return all(
-            p.waiting and not p.poked and p.deadline_s > now for p in self._participants.values()
-        )
+        return all(p.idle(now) for p in self._participants.values() if rank is None or p.rank < rank)
 
     def wait_until_idle(self) -> None:
         """Block until every participant waits on the clock (simulator side).
@@ -223,13 +247,14 @@ class SimClock:
             if self._stopped:
                 raise ClockStopped("simulation clock stopped")
 
-    def _wait_idle_locked(self) -> None:
+    def _wait_idle_locked(self, ranks_below: int | None = None) -> None:
+        """Wait until every participant is idle (with ``ranks_below``: those of lower rank)."""
         wall_limit = time.monotonic() + self._stall_timeout_s
-        while not self._stopped and not self._all_participants_idle():
+        while not self._stopped and not self._idle_below(ranks_below):
             remaining = wall_limit - time.monotonic()
             if remaining <= 0.0:
                 running = tuple(
-                    p.name for p in self._participants.values() if not p.waiting or p.poked
+                    p.name for p in self._participants.values() if not p.idle(self._now_s)
                 )
                 raise LockstepStall(
                     f"participants did not yield within {self._stall_timeout_s} wall s",
@@ -261,10 +286,18 @@ class SimClock:
                 raise ClockStopped("simulation clock stopped")
             self._now_s = t_s
             self._generation += 1
-            for p in self._participants.values():
-                if p.waiting and p.deadline_s <= t_s:
-                    p.wake.notify_all()
             self._tick.notify_all()
+            due = [p for p in self._participants.values() if p.waiting and p.deadline_s <= t_s]
+            ranks = sorted({p.rank for p in due})
+            for i, rank in enumerate(ranks):
+                for p in due:
+                    if p.rank == rank:
+                        p.released = True
+                        p.wake.notify_all()
+                if i + 1 < len(ranks):  # this rank waits again before the next is let go
+                    self._wait_idle_locked(ranks_below=ranks[i + 1])
+                    if self._stopped:
+                        raise ClockStopped("simulation clock stopped")
 
     def stop(self) -> None:
         """Stop the clock: every waiter and the simulator get ``ClockStopped``."""

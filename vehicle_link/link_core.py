@@ -105,6 +105,7 @@ class LinkCore(TelemetryStore):
         self._tlog: TlogWriter | None = None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
+        self._running = threading.Event()  # the I/O thread is in its loop (a participant, in lockstep)
 
     # ---- lifecycle ---------------------------------------------------------------------
 
@@ -129,7 +130,11 @@ class LinkCore(TelemetryStore):
         if self._threaded:
             self._stop.clear()
             self._thread = threading.Thread(target=self._run, name="vehicle_link-io", daemon=True)
+            self._running.clear()
             self._thread.start()
+            # Back only once the thread is a lockstep clock's participant: else time could
+            # move on without it and the first replies come a scheduler-dependent step late.
+            self._running.wait(timeout=5.0)
 
     def close(self) -> None:
         """Stop the I/O thread, close the connection and the tlog."""
@@ -152,14 +157,20 @@ class LinkCore(TelemetryStore):
         participant = getattr(self._clock, "participant", None)
         wait_for = getattr(self._clock, "wait_for", None)
         if participant is None or wait_for is None:
+            self._running.set()
             while not self._stop.is_set():
                 self._service_pass(self.config.io_poll_s)
             return
         # A lockstep simulation clock (sim_harness.clock.SimClock) advances only while every
-        # participant waits on it: this thread joins in, drains the socket without blocking,
-        # then waits on the clock, so no reply of the simulated vehicle is ever missed or
-        # late in simulated time.
-        with participant("vehicle_link-io"):
+        # participant waits on it: this thread joins in (as a reader, rank -1, let go before
+        # the controller in each step), drains the socket without blocking, then waits on
+        # the clock, so no reply of the simulated vehicle is missed or late in simulated time.
+        try:
+            joined = participant("vehicle_link-io", rank=-1)
+        except TypeError:  # a lockstep clock without ranks
+            joined = participant("vehicle_link-io")
+        with joined:
+            self._running.set()
             while not self._stop.is_set():
                 self._service_pass(0.0)
                 try:

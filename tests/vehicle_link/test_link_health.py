@@ -215,3 +215,39 @@ def test_garbage_and_malformed_bytes_are_ignored(peer, client, rng: np.random.Ge
     assert client.stats().bad_data > 0
     client.arm()  # the link still works
     assert peer.armed
+
+
+def test_the_io_thread_holds_a_lockstep_clock_before_open_returns():
+    """In lockstep the I/O thread must be a participant before the caller goes on: else the
+    simulator moves time on without it and the first replies arrive a scheduler-dependent
+    number of steps late. The clock here
+    lets the thread register only after a pause, which the old code raced past."""
+    import socket
+    import time
+    from contextlib import contextmanager
+
+    from sim_harness.clock import SimClock
+    from vehicle_link.client import ArduSubClient
+    from vehicle_link.config import LinkConfig
+
+    class SlowToJoin(SimClock):
+        @contextmanager
+        def participant(self, name=None):
+            time.sleep(0.2)  # a thread that is slow to get the interpreter
+            with super().participant(name) as clock:
+                yield clock
+
+    clock = SlowToJoin()
+    peer = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    peer.bind(("127.0.0.1", 0))
+    try:
+        link = ArduSubClient(LinkConfig(f"udpout:127.0.0.1:{peer.getsockname()[1]}"), clock=clock)
+        link.open()  # what connect() does first, before it waits on the clock for a heartbeat
+        try:
+            names = [p.name for p in clock._participants.values()]
+            assert "vehicle_link-io" in names
+        finally:
+            link.close()
+    finally:
+        peer.close()
+        clock.stop()

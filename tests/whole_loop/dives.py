@@ -5,7 +5,7 @@ targets, so that each dive dry-runs in well under a minute. As in the field, a t
 (QGroundControl, system 255 = SYSID_MYGCS) heartbeats and sends its joystick at rest all
 dive, and BlueOS's own services heartbeat as system 1. The compact dive flies pass 1's
 first 3 m lane, without a turn before it, for about 6.5 s from entering PASS_1 (at 21-25 s
-simulated: dives differ by a second or two), so the mid-lane faults are placed
+simulated), so the mid-lane faults are placed
 ``MID_LANE_S`` after PASS_1 begins (``faults_from_state``), at lane speed in every dive.
 """
 

@@ -203,3 +203,43 @@ def test_polling_wait_sees_a_condition_within_one_poll_interval():
             clock.wait_for(lambda: True, 1.0, poll_s=0.0)
     clock.stop()
     sim.join(5.0)
+
+
+def test_a_reader_of_lower_rank_runs_first_in_every_step():
+    """Two participants due in the same step: the reader (rank -1, a link's socket reader)
+    is let go and waits again before the controller (rank 0) is let go, so the controller
+    always sees what the reader stored in this step, however slow the reader is to be
+    scheduled (here it dawdles 1 ms of wall time before storing). Without the ranks the
+    controller would see the last step's value whenever it ran first."""
+    import time
+
+    from sim_harness.clock import RANK_READER
+
+    clock = SimClock()
+    stored = {"t": -1.0}
+    joined = threading.Event()
+
+    def reader() -> None:
+        with clock.participant("reader", rank=RANK_READER):
+            joined.set()
+            try:
+                while True:
+                    clock.sleep_s(0.02)
+                    time.sleep(0.001)
+                    stored["t"] = clock.now_s()
+            except ClockStopped:
+                pass
+
+    seen = []
+    with clock.participant("controller"):
+        th = threading.Thread(target=reader, daemon=True)
+        th.start()
+        assert joined.wait(5.0)
+        sim = _run_sim(clock, 100.0)
+        for _ in range(40):
+            clock.sleep_s(0.02)
+            seen.append((clock.now_s(), stored["t"]))
+    clock.stop()
+    sim.join(5.0)
+    th.join(5.0)
+    assert [t for t, _ in seen] == [s for _, s in seen]
