@@ -185,3 +185,18 @@ def test_altitude_from_the_simulator_renderer(
     assert truth.altitude_m == pytest.approx(altitude)
     assert abs(result.altitude_m - altitude) <= 0.01 * altitude
     assert abs(result.altitude_m - altitude) <= 3.0 * result.std_m
+
+
+def test_the_height_pipeline_loads_without_the_altitude_filter():
+    """perception.navigation's names load on first use: the height pipeline (in the map
+    process, in `shadowsurvey heights`) reads the seabed's start without importing the
+    altitude filter, whose filterpy brings in scipy.stats (about a second at start-up),
+    and the package's names are all still there."""
+    import subprocess
+    import sys
+
+    code = ("import sys, perception.heights.pipeline, perception.navigation as nav; "
+            "assert 'filterpy' not in sys.modules and 'scipy.stats' not in sys.modules, 'loaded'; "
+            "assert nav.AltitudeFilter.__name__ == 'AltitudeFilter' and 'filterpy' in sys.modules; "
+            "assert set(nav.__all__) <= set(dir(nav))")
+    subprocess.run([sys.executable, "-c", code], check=True)
