@@ -259,17 +259,39 @@ def test_buffered_solve_is_a_plain_casadi_call(states: list) -> None:
     solve = kept._solve
     problems: list[tuple] = []
 
-    def recorded(*problem: np.ndarray) -> tuple[np.ndarray, bool]:
-        problems.append(tuple(np.array(p) for p in problem))
-        return solve(*problem)
+    def recorded(qp, *problem: np.ndarray) -> tuple[np.ndarray, bool]:
+        problems.append((qp, *(np.array(p) for p in problem)))
+        return solve(qp, *problem)
 
     kept._solve = recorded  # type: ignore[method-assign]
     for alt, pitch, speed, tilt, shadows in states + states[:1]:
         state = PitchState(altitude_m=alt, vehicle_pitch_rad=pitch, speed_m_s=speed, current_tilt_rad=tilt)
         cmd = kept.step(state, shadows)
         assert repr(cmd) == repr(PitchLoop(cfg, LIMITS).step(state, shadows))  # repr: NaN margins compare
-        hess_nz, g, lba, uba, lbx, ubx = problems[-1]
-        plain = kept._solver(h=ca.DM(kept._hess_sp, hess_nz), g=g, a=kept._a_dm, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
-        x, ok = solve(hess_nz, g, lba, uba, lbx, ubx)
-        assert ok == bool(kept._solver.stats()["success"])
+        qp, hess_nz, g, lba, uba, lbx, ubx = problems[-1]
+        plain = qp.solver(h=ca.DM(qp.hess_sp, hess_nz), g=g, a=qp.a_dm, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
+        x, ok = solve(qp, hess_nz, g, lba, uba, lbx, ubx)
+        assert ok == bool(qp.solver.stats()["success"])
         assert np.array_equal(x, np.asarray(plain["x"]).ravel())
+
+
+@settings(max_examples=40, deadline=None)
+@given(states=st.lists(st.tuples(st.floats(0.5, 3.0), st.floats(-0.08, 0.08), st.floats(0.0, 1.5),
+                                 st.floats(-0.3, 1.4), st.lists(shadow_st, max_size=6)), min_size=1, max_size=4))
+def test_a_qp_sized_to_the_targets_served_gives_the_full_qps_command(states: list) -> None:
+    """The loop solves a QP with one slot per target served (none, most of a field survey):
+    an empty slot would only add slacks no constraint reaches, held at zero by their cost,
+    so the QP with every slot must command the same tilt and plan (to the solver's
+    rounding), and say so as often."""
+    cfg = pitch_config(horizon_steps=8, max_targets=4)
+    sized, full = PitchLoop(cfg, LIMITS), PitchLoop(cfg, LIMITS)
+    full._slots = lambda n_served: cfg.max_targets  # type: ignore[method-assign]
+    for alt, pitch, speed, tilt, shadows in states:
+        state = PitchState(altitude_m=alt, vehicle_pitch_rad=pitch, speed_m_s=speed, current_tilt_rad=tilt)
+        a, b = sized.step(state, shadows), full.step(state, shadows)
+        assert a.solver_ok == b.solver_ok
+        assert a.tilt_rad == pytest.approx(b.tilt_rad, abs=1e-9)
+        assert a.planned_tilt_rad == pytest.approx(b.planned_tilt_rad, abs=1e-8)
+        assert a.slack_rad == pytest.approx(b.slack_rad, abs=1e-9)
+        assert a.dropped == b.dropped
+    assert max(sized._qps) <= cfg.max_targets and set(full._qps) == {cfg.max_targets}
