@@ -133,4 +133,6 @@ def _stamp_known(frame: Any, known: dict[str, float]) -> Any:
     if not dataclasses.is_dataclass(frame) or isinstance(frame, type):
         return frame
     names = {f.name for f in dataclasses.fields(frame)}
-    return dataclasses.replace(frame, **{k: v for k, v in known.items() if k in names})
+    changes = {k: v for k, v in known.items() if k in names}
+    with_fields = getattr(frame, "with_fields", None)  # a SonarFrame's, which spares its arrays the checks
+    return with_fields(**changes) if with_fields is not None else dataclasses.replace(frame, **changes)

@@ -20,6 +20,7 @@ stores degrees, converted only in :mod:`perception.sonar_io.npz`.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
@@ -44,6 +45,7 @@ OPTIONAL_FIELDS = (
     "east_m",
     "sound_speed_m_s",
 )
+_POSE_AND_TIME = frozenset(OPTIONAL_FIELDS) | {"timestamp_s"}
 
 
 def _readonly(array: np.ndarray) -> np.ndarray:
@@ -177,8 +179,28 @@ class SonarFrame:
         return not math.isnan(getattr(self, name))
 
     def with_fields(self, **changes: Any) -> SonarFrame:
-        """A copy with some fields replaced (validated again)."""
-        return replace(self, **changes)
+        """A copy with some fields replaced (validated again).
+
+        When only the ping time and pose fields change (what stamping a frame with the
+        vehicle's navigation does, several times a ping), the new values get the checks
+        ``__post_init__`` gives them and the arrays, checked when this frame was made, are
+        shared as they are: the same frame and the same refusals, without re-reading the
+        image (about 0.07 ms a frame)."""
+        if not changes.keys() <= _POSE_AND_TIME:
+            return replace(self, **changes)
+        values = {name: float(value) for name, value in changes.items()}
+        if not math.isfinite(values.get("timestamp_s", 0.0)):
+            raise FrameFormatError("must be finite", key="timestamp_s")
+        for name in OPTIONAL_FIELDS:  # in the order __post_init__ checks them
+            if math.isinf(values.get(name, 0.0)):
+                raise FrameFormatError("must be finite or NaN (unknown)", key=name)
+        pose = {"timestamp_s": self.timestamp_s, **{name: getattr(self, name) for name in OPTIONAL_FIELDS}}
+        pose.update(values)
+        check_pose(pose)
+        made = copy.copy(self)
+        for name, value in values.items():
+            object.__setattr__(made, name, value)
+        return made
 
     def same_geometry(self, other: SonarFrame, *, rtol: float = 1e-9) -> bool:
         """True when both frames share range samples, beam azimuths and aperture."""

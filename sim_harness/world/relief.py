@@ -59,6 +59,8 @@ class Relief:
 
     def height_m(self, north_m: ArrayLike, east_m: ArrayLike) -> FloatArray:
         """Relief height (positive up), m, broadcast over the inputs."""
+        if isinstance(north_m, (float, int, np.floating)) and isinstance(east_m, (float, int, np.floating)):
+            return np.float64(self.height_at_m(float(north_m), float(east_m)))
         n = np.asarray(north_m, dtype=np.float64)
         e = np.asarray(east_m, dtype=np.float64)
         shape, n_flat, e_flat = _rows_of(n, e)
@@ -69,6 +71,21 @@ class Relief:
         np.cos(arg, out=arg)
         arg *= self._a[:, None]
         return np.asarray(_sum_rows(arg).reshape(shape), dtype=np.float64)
+
+    def height_at_m(self, north_m: float, east_m: float) -> float:
+        """:meth:`height_m` at one point, the same number bit for bit: the same float64
+        operations in the same order (one cosine call over the components, their sum in
+        component order), without the array machinery (the simulator asks at every step)."""
+        arg = self._k[:, 0] * north_m
+        arg += self._k[:, 1] * east_m
+        arg += self._phase
+        np.cos(arg, out=arg)
+        arg *= self._a
+        terms = arg.tolist()
+        total = terms[0] + 0.0
+        for term in terms[1:]:
+            total += term
+        return total
 
     def gradient(self, north_m: ArrayLike, east_m: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """(d height / d north, d height / d east), dimensionless."""

@@ -92,3 +92,52 @@ def test_with_fields_revalidates_and_same_geometry():
     assert not frame.same_geometry(make(range_m=np.linspace(2.0, 7.0, 5)))
     with pytest.raises(FrameFormatError):
         frame.with_fields(range_m=np.zeros(5))
+
+
+_POSE_VALUES = {
+    "timestamp_s": [0.0, 12.5, -3.0, math.inf, math.nan],
+    "sonar_depth_m": [0.0, 12.0, -5.0, 20000.0, math.inf, math.nan],
+    "altitude_m": [0.5, 0.0, -1.0, 5000.0, math.nan],
+    "tilt_rad": [0.3, -0.2, 2.0, math.nan],
+    "vehicle_pitch_rad": [0.05, 1.7, math.nan],
+    "vehicle_roll_rad": [-0.1, 3.5, math.nan],
+    "heading_rad": [0.0, 6.0, -1.0, 100.0, math.nan],
+    "north_m": [3.0, -40.0, 1e9, math.nan],
+    "east_m": [-2.0, 1e9, -math.inf, math.nan],
+    "sound_speed_m_s": [1500.0, 100.0, 0.0, math.nan],
+}
+
+
+def _outcome(make):
+    try:
+        frame = make()
+    except FrameFormatError as exc:
+        return ("refused", exc.key, str(exc))
+    return ("made", tuple(repr(getattr(frame, name)) for name in frame_field_names() if name != "image"),
+            frame.image.tobytes(), frame.image.flags.writeable)
+
+
+def test_pose_changes_are_checked_as_a_new_frame_checks_them():
+    """``with_fields`` of the ping time and pose fields (stamping, every ping) shares the
+    checked arrays instead of checking them again: each change, good or bad, must give
+    what building the frame anew gives (``dataclasses.replace``): the same fields, or the
+    same refusal naming the same key."""
+    import dataclasses
+    import itertools
+
+    rng = np.random.default_rng(5)
+    base = SonarFrame(rng.integers(0, 255, (40, 8)).astype(np.uint8), np.linspace(1.0, 6.0, 40),
+                      np.linspace(-0.25, 0.25, 8), math.radians(14.0), 1.0, altitude_m=2.0, tilt_rad=0.3,
+                      north_m=1.0, east_m=2.0, heading_rad=0.5)
+    names = sorted(_POSE_VALUES)
+    checked = 0
+    for a, b in itertools.combinations(names, 2):
+        for va, vb in itertools.product(_POSE_VALUES[a], _POSE_VALUES[b]):
+            changes = {a: va, b: vb}
+            assert _outcome(lambda c=changes: base.with_fields(**c)) == \
+                _outcome(lambda c=changes: dataclasses.replace(base, **c)), changes
+            checked += 1
+    assert checked == 828  # every pair of fields, every pair of their values
+    moved = base.with_fields(north_m=5.0)
+    assert moved.north_m == 5.0 and base.north_m == 1.0  # a copy: the original is untouched
+    assert not moved.image.flags.writeable

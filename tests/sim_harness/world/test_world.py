@@ -249,3 +249,18 @@ def test_relief_equals_its_sinusoids_summed_in_order(
             assert [h[i, j], gn[i, j], ge[i, j]] == want
             assert heights[i, j] == want64
     assert float(relief.height_m(n[0, 0], e[0])) == heights[0, 0]
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 10_000), n_components=st.integers(1, 32),
+       points=st.lists(st.tuples(st.floats(-2000, 2000), st.floats(-2000, 2000)), min_size=1, max_size=20))
+def test_relief_at_one_point_is_the_array_answer_bit_for_bit(seed, n_components, points) -> None:
+    """The simulator asks the relief at one point every step (``Relief.height_at_m``, also
+    what ``height_m`` answers for scalars): the same float64 as the array path, so a
+    vehicle's true altitude and the renderer's seabed never disagree in the last bit."""
+    relief = Relief(amplitude_m=0.05, wavelength_m=4.0, seed=seed, n_components=n_components)
+    north, east = (np.array(c, dtype=np.float64) for c in zip(*points, strict=True))
+    expected = relief.height_m(north, east)
+    for (n, e), h in zip(points, expected, strict=True):
+        assert relief.height_at_m(n, e) == h
+        assert relief.height_m(n, e) == h and relief.height_m(np.float64(n), e) == h
