@@ -143,7 +143,7 @@ def main(argv: Sequence[str] | None = None) -> str:
         "## Pitch loop\n\n"
         + (__doc__ or "").split("\n\n")[1].replace("\n", " ") + "\n\n"
         + "\n".join(rows)
-        + "\n\nWhole step times (prediction, QP of 10 steps x 4 target slots, margins), over "
+        + "\n\nWhole step times (prediction, QP of 10 steps with one slot per target served, up to 4, margins), over "
         + f"{len(calls)} recorded control steps; {platform.machine()}, Python {platform.python_version()}.\n\n"
         + "\n".join(trows)
     )
