@@ -46,6 +46,7 @@ from planner.survey.plan import SurveyPlan
 from planner.survey.plot import plot_plan
 from sim_harness.autopilot.autopilot import AutopilotConfig
 from sim_harness.clock import SimClock
+from sim_harness.errors import ClockStopped
 from sim_harness.peers import BlueOsServices
 from sim_harness.simulator import VehicleConfig, VehicleSimulator
 from sim_harness.sonar.renderer import SonarConfig, SonarRenderer
@@ -228,41 +229,55 @@ def run_dry_dive(
             if scenario.companion_dies_at_s is not None and now >= t0 + scenario.companion_dies_at_s:
                 raise CompanionDied()
 
-        joined = threading.Event()
+        joined, flown = threading.Event(), threading.Event()
 
         def fly() -> None:
             with clock.participant("executor"):
                 joined.set()  # the simulator starts only once this thread holds it back
-                client = ArduSubClient(link_config, clock=clock, on_link_lost=lambda h: executor.on_link_lost(h),
-                                       on_link_restored=lambda h: executor.on_link_restored(h))
-                executor = MissionExecutor(client, sim.sonar, plan, exec_config, run, clock, onboard, tilt=tilt,
-                                           on_cycle=cycle)
-                holder["executor"] = executor
-                client.add_listener(onboard.listener)
                 try:
-                    holder["result"] = executor.run_dive()
-                except CompanionDied:
-                    # Killed: no safe action, no goodbye; the link's I/O thread dies with it.
-                    holder["killed_s"] = clock.now_s()
-                    executor.result.status, executor.result.reason = "killed", "companion_killed"
-                    executor.result.message = f"the companion's process was killed at {clock.now_s():.1f} s"
-                    executor.result.end_s = clock.now_s()
-                    holder["result"] = executor.result
-                except BaseException as exc:  # a Ctrl-C from the progress callback: raised again below
-                    holder["error"] = exc
+                    _fly()
                 finally:
-                    client.close()
+                    flown.set()  # at this simulated instant: the dive's thread holds the clock here
+                    clock.notify()
+
+        def _fly() -> None:
+            client = ArduSubClient(link_config, clock=clock, on_link_lost=lambda h: executor.on_link_lost(h),
+                                   on_link_restored=lambda h: executor.on_link_restored(h))
+            executor = MissionExecutor(client, sim.sonar, plan, exec_config, run, clock, onboard, tilt=tilt,
+                                       on_cycle=cycle)
+            holder["executor"] = executor
+            client.add_listener(onboard.listener)
+            try:
+                holder["result"] = executor.run_dive()
+            except CompanionDied:
+                # Killed: no safe action, no goodbye; the link's I/O thread dies with it.
+                holder["killed_s"] = clock.now_s()
+                executor.result.status, executor.result.reason = "killed", "companion_killed"
+                executor.result.message = f"the companion's process was killed at {clock.now_s():.1f} s"
+                executor.result.end_s = clock.now_s()
+                holder["result"] = executor.result
+            except BaseException as exc:  # a Ctrl-C from the progress callback: raised again below
+                holder["error"] = exc
+            finally:
+                client.close()
 
         pilot = threading.Thread(target=fly, name="executor")
-        pilot.start()
-        joined.wait()
-        sim.start()
-        try:
-            pilot.join()
-            if scenario.run_on_s > 0.0:  # let the vehicle show what it does on its own
-                clock.sleep_until(holder.get("killed_s", clock.now_s()) + scenario.run_on_s)
-        finally:
-            sim.stop()
+        # This thread holds the clock too, so the simulation stops at a simulated time that
+        # depends only on the dive (the executor's end, or run_on_s after it), never on how
+        # soon the host schedules it after the executor's thread is done.
+        with clock.participant("dry run"):
+            pilot.start()
+            joined.wait()
+            sim.start()
+            try:
+                clock.wait_for(flown.is_set, math.inf)
+                if scenario.run_on_s > 0.0:  # let the vehicle show what it does on its own
+                    clock.sleep_until(holder.get("killed_s", clock.now_s()) + scenario.run_on_s)
+            except ClockStopped:
+                pass  # the simulator stopped the clock (its own error, kept in sim.error)
+            finally:
+                sim.stop()
+        pilot.join()
         if "result" not in holder:
             run.close()
             if "error" in holder:
