@@ -274,10 +274,14 @@ def run_dry_dive(
                 if scenario.run_on_s > 0.0:  # let the vehicle show what it does on its own
                     clock.sleep_until(holder.get("killed_s", clock.now_s()) + scenario.run_on_s)
             except ClockStopped:
-                pass  # the simulator stopped the clock (its own error, kept in sim.error)
+                if sim.error is None:  # only the simulator stops the clock early, on an error of its own
+                    raise
             finally:
                 sim.stop()
         pilot.join()
+        if sim.error is not None:  # the simulated vehicle failed: that, not the stopped clock, is the cause
+            run.close()
+            raise sim.error
         if "result" not in holder:
             run.close()
             if "error" in holder:

@@ -329,3 +329,21 @@ def test_both_passes_see_the_whole_area(nominal: DryRun):
     assert coverage["pass_1"] >= planned[0] - 0.08 and coverage["pass_2"] >= planned[1] - 0.08
     assert coverage["every_pass"] >= min(planned) - 0.10
     assert coverage["any_pass"] <= 1.0
+
+
+def test_a_failing_simulator_is_the_error_the_dry_run_raises(tmp_path, monkeypatch):
+    """When the simulated vehicle itself fails mid-dive (a bug of ours, not a fault of the
+    scenario), it stops the clock: the dry run must raise the simulator's own error, not
+    the stopped clock every other thread then meets."""
+    from sim_harness.simulator import VehicleSimulator
+
+    step = VehicleSimulator.step
+
+    def failing(self):
+        if self.clock.now_s() > 3.0:
+            raise ArithmeticError("the simulated vehicle broke")
+        return step(self)
+
+    monkeypatch.setattr(VehicleSimulator, "step", failing)
+    with pytest.raises(ArithmeticError, match="simulated vehicle broke"):
+        dive(tmp_path)
