@@ -161,7 +161,7 @@ class PitchLoop:
     def __init__(self, config: PitchLoopConfig, limits: MountLimits):
         self.config = config
         self.limits = limits
-        self._n, self._m = config.horizon_steps, config.max_targets
+        self._n = config.horizon_steps
         self._qps: dict[int, _Qp] = {}
 
     def _slots(self, n_served: int) -> int:
