@@ -29,7 +29,7 @@ from perception.mapping.survey_map import Drift, SurveyMap
 from perception.sonar_io.frame import SonarFrame
 
 #: What the parent may ask of the map (read-only methods of SurveyMap).
-QUERIES = ("targets", "mapped_targets", "raster")
+QUERIES = ("targets", "mapped_targets", "raster", "counters")
 
 
 class MapProcessError(RuntimeError):
@@ -104,11 +104,14 @@ def tracked_targets(targets: Sequence[TargetHeight]) -> tuple[TrackedTarget, ...
 def apply_batch(survey_map: SurveyMap, batch: Sequence[tuple[SonarFrame, bool]], *,
                 with_targets: bool = False) -> BatchResult:
     """Add each ``(frame, mosaic)`` of ``batch`` to ``survey_map`` (in-thread and in the child
-    alike); ``with_targets``: the targets after it too (:func:`tracked_targets`)."""
+    alike) but for the last frame's blend, which waits (:meth:`SurveyMap.measure_frame`) so
+    that the child can answer first and blend after: the counters are those before that
+    blend, in thread too, so that both give the same; ``with_targets``: the targets after
+    the batch too (:func:`tracked_targets`)."""
     results: list[FrameResult | None] = []
     for frame, mosaic in batch:
         try:
-            results.append(survey_map.add_frame(frame, mosaic=mosaic))
+            results.append(survey_map.measure_frame(frame, mosaic=mosaic))
         except (FrameFormatError, GeometryError):
             results.append(None)
     return BatchResult(tuple(results), survey_map.drift, survey_map.frames_mapped, survey_map.frames_measured,
@@ -116,8 +119,13 @@ def apply_batch(survey_map: SurveyMap, batch: Sequence[tuple[SonarFrame, bool]],
 
 
 def serve(messages: IO[bytes], replies: IO[bytes]) -> None:
-    """The child's loop: the (empty) map, then batches and queries in order until ``None``."""
+    """The child's loop: the (empty) map, then batches and queries in order until ``None``.
+
+    A batch is answered before its last frame is blended into the mosaic
+    (:func:`apply_batch`), so the parent, which waits for the answer, does not wait for the
+    blend too; the blend is done before the next message is read."""
     survey_map: SurveyMap = read_message(messages)
+    blend_error: Exception | None = None  # the last blend's, answered to the next message
     while True:
         try:
             message = read_message(messages)
@@ -127,9 +135,12 @@ def serve(messages: IO[bytes], replies: IO[bytes]) -> None:
             return
         kind, payload = message
         try:
-            if kind == "batch":
+            if blend_error is not None:
+                reply: tuple[str, Any] = ("error", blend_error)
+                blend_error = None
+            elif kind == "batch":
                 frames, with_targets = payload
-                reply: tuple[str, Any] = ("ok", apply_batch(survey_map, frames, with_targets=with_targets))
+                reply = ("ok", apply_batch(survey_map, frames, with_targets=with_targets))
             elif kind in QUERIES:
                 reply = ("ok", getattr(survey_map, kind)(*payload))
             else:
@@ -140,6 +151,10 @@ def serve(messages: IO[bytes], replies: IO[bytes]) -> None:
             write_message(replies, reply)
         except (BrokenPipeError, OSError):
             return
+        try:
+            survey_map.finish_frame()
+        except Exception as exc:  # raised in the parent at its next answer
+            blend_error = exc
 
 
 class SurveyMapProcess:

@@ -30,8 +30,9 @@ from perception.heights.pipeline import FrameResult, HeightPipeline, TargetHeigh
 from perception.mapping.builder import MosaicBuilder, masks_from_shadows
 from perception.mapping.heights_layer import MappedTarget
 from perception.mapping.look_spacing import LookSpacing
-from perception.mapping.mosaic import MosaicConfig, TiledMosaic
+from perception.mapping.mosaic import MosaicConfig, SonarPlacement, TiledMosaic, placement_from_frame
 from perception.mapping.products import MapRaster, map_raster
+from perception.mapping.projection import check_altitude
 from perception.mapping.registration import RegistrationConfig
 from perception.sonar_io.frame import SonarFrame
 
@@ -61,6 +62,16 @@ class Drift:
     plausible_m: float = math.nan
 
 
+@dataclass(frozen=True)
+class _WaitingBlend:
+    """A frame measured by :meth:`SurveyMap.measure_frame`, to be blended by :meth:`SurveyMap.finish_frame`."""
+
+    frame: SonarFrame
+    placement: SonarPlacement
+    result: FrameResult
+    weight_scale: float
+
+
 class SurveyMap:
     """The frame-to-map chain (see the module docstring).
 
@@ -83,6 +94,7 @@ class SurveyMap:
         self._heights = HeightPipeline(heights or HeightsConfig(shared_altitude=False))
         self._builder = MosaicBuilder(mosaic or MosaicConfig(), registration)
         self._spacing = LookSpacing(mosaic_looks) if mosaic_looks is not None else None
+        self._waiting: _WaitingBlend | None = None  # measured, not yet blended (measure_frame)
 
     # ------------------------------------------------------------------ verbs
     def add_frame(self, frame: SonarFrame, *, mosaic: bool = True) -> FrameResult:
@@ -92,6 +104,22 @@ class SurveyMap:
         Raises what the height pipeline and the mosaic raise for a frame they cannot use
         (:class:`~perception.errors.FrameFormatError`, :class:`~perception.errors.GeometryError`).
         """
+        result = self.measure_frame(frame, mosaic=mosaic)
+        self.finish_frame()
+        return result
+
+    def measure_frame(self, frame: SonarFrame, *, mosaic: bool = True) -> FrameResult:
+        """:meth:`add_frame` but for the blend, which waits for :meth:`finish_frame` (or the
+        next frame, or a reading of the mosaic, which finish it first): a caller that must
+        answer quickly answers between the two (the map process:
+        :func:`perception.mapping.map_process.serve`). The map and every result are those of
+        :meth:`add_frame`; only :attr:`drift` and :attr:`frames_mapped` leave the waiting
+        blend out until it is done.
+
+        A frame the mosaic cannot place (no pose, altitude not above 0) is refused here,
+        before anything of the mosaic's changes.
+        """
+        self.finish_frame()
         result = self._heights.add_frame(self._drift_corrected(frame), altitude_m=frame.altitude_m)
         stands_for = 1
         if self._spacing is not None:
@@ -101,15 +129,25 @@ class SurveyMap:
             else:
                 self._spacing.interrupt()
         if mosaic:
-            shadow = target = None
-            if result.measurements:
-                # The masks come from the shadows just measured (no second segmentation).
-                found = masks_from_shadows(result.measurements, range_m=frame.range_m, n_beams=frame.n_beams,
-                                           beam_azimuth_rad=frame.beam_azimuth_rad, image=frame.image)
-                shadow, target = found.shadow, found.target
-            self._builder.add_frame(frame, altitude_m=frame.altitude_m, exclude_mask=shadow, unreliable_mask=target,
-                                    weight_scale=float(stands_for))
+            placement = placement_from_frame(frame, altitude_m=frame.altitude_m)
+            check_altitude(placement)
+            self._waiting = _WaitingBlend(frame, placement, result, float(stands_for))
         return result
+
+    def finish_frame(self) -> None:
+        """Blend the frame :meth:`measure_frame` measured, if it waits (a no-op otherwise)."""
+        waiting, self._waiting = self._waiting, None
+        if waiting is None:
+            return
+        frame, result = waiting.frame, waiting.result
+        shadow = target = None
+        if result.measurements:
+            # The masks come from the shadows just measured (no second segmentation).
+            found = masks_from_shadows(result.measurements, range_m=frame.range_m, n_beams=frame.n_beams,
+                                       beam_azimuth_rad=frame.beam_azimuth_rad, image=frame.image)
+            shadow, target = found.shadow, found.target
+        self._builder.add_frame(frame, placement=waiting.placement, exclude_mask=shadow, unreliable_mask=target,
+                                weight_scale=waiting.weight_scale)
 
     def _drift_corrected(self, frame: SonarFrame) -> SonarFrame:
         d = self._builder.drift
@@ -120,7 +158,8 @@ class SurveyMap:
     # --------------------------------------------------------------- reading
     @property
     def drift(self) -> Drift | None:
-        """The drift correction so far (None without registration)."""
+        """The drift correction so far (None without registration); a blend waiting
+        (:meth:`measure_frame`) is not in it yet."""
         d = self._builder.drift
         if d is None:
             return None
@@ -134,12 +173,18 @@ class SurveyMap:
 
     @property
     def frames_mapped(self) -> int:
-        """Frames blended into the mosaic."""
+        """Frames blended into the mosaic (a blend waiting, :meth:`measure_frame`, not yet)."""
         return self._builder.mosaic.frames_added
+
+    def counters(self) -> tuple[Drift | None, int, int]:
+        """(:attr:`drift`, :attr:`frames_mapped`, :attr:`frames_measured`), a waiting blend done."""
+        self.finish_frame()
+        return self.drift, self.frames_mapped, self.frames_measured
 
     @property
     def mosaic(self) -> TiledMosaic:
-        """The mosaic (read it; add frames only through :meth:`add_frame`)."""
+        """The mosaic (read it; add frames only through :meth:`add_frame`), a waiting blend done."""
+        self.finish_frame()
         return self._builder.mosaic
 
     def targets(self) -> list[TargetHeight]:
@@ -172,6 +217,7 @@ class SurveyMap:
     def raster(self, targets: list[MappedTarget] | None = None) -> MapRaster | None:
         """The map raster (echo and heights layers) of ``targets`` (default: the mapped
         targets); None while no frame has been blended in."""
+        self.finish_frame()
         if not self.frames_mapped:
             return None
         try:

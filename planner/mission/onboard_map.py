@@ -5,7 +5,10 @@ its own process (:mod:`perception.mapping.map_process`) with every result one ca
 whose results are in: in thread, this batch's; with the process, the one sent at the
 previous call (the child measured it while the controller worked). The counters and the
 control loop's targets (:meth:`OnboardMap.tracked_targets`) are those of the newest batch
-returned; the products (targets, mapped targets, raster) take every batch back first
+returned (the mosaic's counters, :attr:`OnboardMap.frames_mapped` and :attr:`OnboardMap.drift`,
+without its last frame's blend, which the child does after answering:
+:func:`perception.mapping.map_process.apply_batch`; exact again once a product is read); the
+products (targets, mapped targets, raster) take every batch back first
 (returned by the next :meth:`OnboardMap.add`, or :meth:`OnboardMap.take_ready`).
 """
 
@@ -33,7 +36,7 @@ class OnboardMap:
         self._worker = SurveyMapProcess(survey_map) if process else None
         self._every_s = tracked_targets_every_s
         self._asked_s = -math.inf
-        self._last = BatchResult((), None, 0, 0, ())
+        self._counters: tuple[Drift | None, int, int] = (None, 0, 0)  # drift, frames mapped, measured
         self._targets: tuple[TrackedTarget, ...] = ()
         self._ready: list[BatchResult] = []  # taken back by a query, not yet returned by add
 
@@ -62,7 +65,7 @@ class OnboardMap:
         return done
 
     def _keep(self, batch: BatchResult) -> BatchResult:
-        self._last = batch
+        self._counters = (batch.drift, batch.frames_mapped, batch.frames_measured)
         if batch.targets is not None:
             self._targets = batch.targets
         return batch
@@ -74,18 +77,18 @@ class OnboardMap:
 
     @property
     def drift(self) -> Drift | None:
-        """The drift correction as of the newest batch returned."""
-        return self._last.drift
+        """The drift correction as of the newest batch returned (but its last blend) or product read."""
+        return self._counters[0]
 
     @property
     def frames_mapped(self) -> int:
-        """Frames blended into the mosaic, as of the newest batch returned."""
-        return self._last.frames_mapped
+        """Frames blended into the mosaic, as of the newest batch returned (but its last blend) or product read."""
+        return self._counters[1]
 
     @property
     def frames_measured(self) -> int:
         """Frames the height pipeline has taken, as of the newest batch returned."""
-        return self._last.frames_measured
+        return self._counters[2]
 
     def tracked_targets(self) -> tuple[TrackedTarget, ...]:
         """The control loop's view of every target (``TrackedTarget``): in thread, now;
@@ -109,9 +112,13 @@ class OnboardMap:
     def _query(self, name: str, *args: Any) -> Any:
         """``SurveyMap.<name>(*args)``: here, or in the child once every batch is back."""
         if self._worker is None:
-            return getattr(self._map, name)(*args)
+            answer = getattr(self._map, name)(*args)
+            self._counters = self._map.counters()
+            return answer
         self._collect()
-        return self._worker.query(name, *args)
+        answer = self._worker.query(name, *args)
+        self._counters = self._worker.query("counters")
+        return answer
 
     def close(self) -> None:
         """Stop the map process, if any."""

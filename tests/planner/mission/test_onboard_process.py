@@ -9,12 +9,16 @@ seabed at 1 m altitude, with the telemetry of their poses, fed to two
 
 from __future__ import annotations
 
+import io
 import math
 
 import numpy as np
 import pytest
 
-from perception.mapping.map_process import MapProcessError, SurveyMapProcess
+from perception.child_process import read_message, write_message
+from perception.mapping.map_process import MapProcessError, SurveyMapProcess, serve
+from perception.mapping.mosaic import MosaicConfig
+from perception.mapping.registration import RegistrationConfig
 from perception.mapping.survey_map import SurveyMap
 from planner.mission.onboard import OnboardConfig, OnboardPerception
 from sim_harness.sonar.renderer import SonarConfig, SonarPose, SonarRenderer
@@ -152,3 +156,49 @@ def test_the_targets_come_back_at_their_interval(frames) -> None:
         assert len(changed_at) >= 5 and np.all(steps >= 0.5 - 1e-9), changed_at
     finally:
         onboard.close()
+
+
+class _BlendFails(SurveyMap):
+    """A map whose blends fail: the error must reach the parent, not vanish in the child."""
+
+    def finish_frame(self) -> None:
+        if self._waiting is not None:
+            self._waiting = None
+            raise RuntimeError("the blend failed")
+
+
+def test_a_frame_measured_then_blended_makes_the_map_add_frame_makes(frames) -> None:
+    """The map process answers between a frame's measurement and its blend; the map is the
+    same, the counters leave the waiting blend out until it is done."""
+    def new_map() -> SurveyMap:
+        return SurveyMap(mosaic=MosaicConfig(resolution_m=RES_M), registration=RegistrationConfig())
+
+    whole, halves = new_map(), new_map()
+    for k, frame in enumerate(frames):
+        drift_before = whole.drift
+        a = whole.add_frame(frame)
+        b = halves.measure_frame(frame)
+        assert _seen([a]) == _seen([b])
+        assert halves.frames_mapped == k and whole.frames_mapped == k + 1
+        assert halves.drift == drift_before  # its registration waits with its blend
+    assert halves.counters() == whole.counters()
+    assert whole.drift is not None and whole.drift.accepted + whole.drift.refused > 0, "registration took part"
+    np.testing.assert_array_equal(halves.raster().intensity, whole.raster().intensity)
+    assert _places(halves.targets()) == _places(whole.targets())
+
+
+def test_a_failed_blend_is_the_next_answer(frames) -> None:
+    messages, replies = io.BytesIO(), io.BytesIO()
+    write_message(messages, _BlendFails(mosaic=MosaicConfig(resolution_m=RES_M)))
+    write_message(messages, ("batch", ([(frames[0], True)], False)))
+    write_message(messages, ("counters", ()))
+    write_message(messages, None)
+    messages.seek(0)
+    serve(messages, replies)
+    replies.seek(0)
+    kind, batch = read_message(replies)
+    assert kind == "ok" and len(batch.results) == 1 and batch.frames_mapped == 0
+    kind, error = read_message(replies)
+    assert kind == "error" and "the blend failed" in str(error)
+    with pytest.raises(EOFError):
+        read_message(replies)
