@@ -9,12 +9,15 @@ pipe's buffer) and works on while the parent does. A child that dies ends the wa
 next reply with an error naming its exit code, never a wait forever; a Ctrl-C reaches the
 parent only (the child ignores SIGINT: the parent decides what stops).
 
-Used by :mod:`sim_harness.render_worker` (the simulator's sonar pings) and
-:mod:`perception.mapping.map_process` (the on-board frame-to-map chain).
+Used by :mod:`sim_harness.render_worker` (the simulator's sonar pings),
+:mod:`perception.mapping.map_process` (the on-board frame-to-map chain) and
+:mod:`planner.report.figure_worker` (the dry run's pictures). :func:`start_early` starts a
+child before it is needed, so that its start overlaps the parent's own.
 """
 
 from __future__ import annotations
 
+import atexit
 import collections
 import os
 import pickle
@@ -89,21 +92,79 @@ def child_streams() -> tuple[IO[bytes], IO[bytes]]:
     return sys.stdin.buffer, replies
 
 
+def _spawn(module: str) -> subprocess.Popen[bytes]:
+    process = subprocess.Popen(
+        [sys.executable, "-m", module], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+        env={**os.environ, "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "1")})
+    assert process.stdin is not None and process.stdout is not None
+    for stream in (process.stdin, process.stdout):
+        _widen_pipe(stream.fileno())
+    return process
+
+
+#: Children started ahead (:func:`start_early`), by module, not yet taken by a ChildProcess.
+_EARLY: dict[str, list[subprocess.Popen[bytes]]] = {}
+_EARLY_LOCK = threading.Lock()
+
+
+def start_early(module: str) -> None:
+    """Start ``python -m module`` now for the next :class:`ChildProcess` of ``module`` to
+    take, so that the child's start (a fresh interpreter importing numpy, OpenCV and its
+    modules: about half a second) overlaps what this process does meanwhile. One not taken
+    by the time this process exits is stopped then (it only ever waits for its first
+    message)."""
+    process = _spawn(module)
+    with _EARLY_LOCK:
+        if not _EARLY:
+            atexit.register(_stop_early)
+        _EARLY.setdefault(module, []).append(process)
+
+
+def _take_early(module: str) -> subprocess.Popen[bytes] | None:
+    with _EARLY_LOCK:
+        waiting = _EARLY.get(module, [])
+        while waiting:
+            process = waiting.pop(0)
+            if process.poll() is None:
+                return process
+            _close_pipes(process)  # died while it waited (killed): start another
+    return None
+
+
+def _close_pipes(process: subprocess.Popen[bytes]) -> None:
+    for stream in (process.stdin, process.stdout):
+        if stream is not None:
+            try:
+                stream.close()
+            except OSError:
+                pass
+
+
+def _stop_early() -> None:
+    with _EARLY_LOCK:
+        left = [p for waiting in _EARLY.values() for p in waiting]
+        _EARLY.clear()
+    for process in left:
+        _close_pipes(process)  # the child's first read ends: it exits
+        try:
+            process.wait(2.0)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
 class ChildProcess:
     """``python -m module`` with messages to it (:meth:`send`) and its replies in order
-    (:meth:`receive`); ``what`` names it in errors ("the sonar render process")."""
+    (:meth:`receive`); ``what`` names it in errors ("the sonar render process"). It takes a
+    child started ahead for ``module`` (:func:`start_early`) when there is one."""
 
     def __init__(self, module: str, *, what: str, error: type[RuntimeError] = ChildProcessGone) -> None:
         self._what = what
         self._error = error
-        self._process = subprocess.Popen(
-            [sys.executable, "-m", module], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-            env={**os.environ, "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "1")})
+        self._process = _take_early(module) or _spawn(module)
         assert self._process.stdin is not None and self._process.stdout is not None
         self._to_child = self._process.stdin
         self._from_child = self._process.stdout
-        for stream in (self._to_child, self._from_child):
-            _widen_pipe(stream.fileno())
         self._replies: collections.deque[Any] = collections.deque()
         self._arrived = threading.Condition()
         self._ended: str | None = None  # why the replies stopped, once they have

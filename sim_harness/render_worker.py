@@ -34,8 +34,12 @@ def strip_label_images(truth: Any) -> Any:
 
 
 def serve(jobs: IO[bytes], results: IO[bytes]) -> None:
-    """The child's loop: the set-up message, then render every job in order until ``None``."""
-    renderer, pose_factory, keep_label_images = read_message(jobs)
+    """The child's loop: the set-up message, then render every job in order until ``None``
+    (a child started ahead and never used ends at once: no set-up message)."""
+    try:
+        renderer, pose_factory, keep_label_images = read_message(jobs)
+    except EOFError:
+        return
     while True:
         try:
             job = read_message(jobs)
@@ -114,6 +118,8 @@ RENDER_OPENCV_THREADS = 1
 def main() -> None:
     """The child process (:func:`perception.child_process.child_streams`)."""
     import cv2  # the renderer's; only this process is set to one thread
+
+    import sim_harness.sonar.renderer  # noqa: F401  (the set-up message's classes: imported while it comes)
 
     cv2.setNumThreads(RENDER_OPENCV_THREADS)
     serve(*child_streams())

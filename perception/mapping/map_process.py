@@ -124,7 +124,10 @@ def serve(messages: IO[bytes], replies: IO[bytes]) -> None:
     A batch is answered before its last frame is blended into the mosaic
     (:func:`apply_batch`), so the parent, which waits for the answer, does not wait for the
     blend too; the blend is done before the next message is read."""
-    survey_map: SurveyMap = read_message(messages)
+    try:
+        survey_map: SurveyMap = read_message(messages)
+    except EOFError:  # a child started ahead and never used
+        return
     blend_error: Exception | None = None  # the last blend's, answered to the next message
     while True:
         try:

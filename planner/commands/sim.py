@@ -51,6 +51,18 @@ def run(args: argparse.Namespace) -> int:
     touched; the run is built in a staged folder and moved to ``--out`` when complete
     (:mod:`planner.mission.output_folder`).
     """
+    from perception.child_process import start_early
+    from planner.report.figure_worker import FigureWorker
+
+    # The helper processes start first: they import numpy, OpenCV and matplotlib while this
+    # process imports the rest and plans.
+    start_early("sim_harness.render_worker")
+    start_early("perception.mapping.map_process")
+    with FigureWorker() as figures:
+        return _run(args, figures)
+
+
+def _run(args: argparse.Namespace, figures: Any) -> int:
     from planner.dryrun.consistency import check_consistent
     from planner.dryrun.dive import dry_dive_into, prepare_dry_dive
     from planner.dryrun.scenario import load_scenario
@@ -74,11 +86,11 @@ def run(args: argparse.Namespace) -> int:
                 bar.update(0)  # redraws at most once per mininterval
 
     try:
-        dry = dry_dive_into(prepared, out, overwrite=args.overwrite, progress=progress)
+        dry = dry_dive_into(prepared, out, overwrite=args.overwrite, progress=progress, figures=figures)
     finally:
         if bar is not None:
             bar.close()
-    report = generate_report(out)
+    report = generate_report(out, helper=figures)
     print(format_summary(dry.summary, out))
     print(f"report: {report}")
     return 0 if dry.summary.get("status") == "completed" else 1

@@ -39,11 +39,11 @@ from planner.mission.output_folder import staged_folder
 from planner.mission.products import summary_document, write_products
 from planner.mission.run_folder import RunFolder, mark_partial
 from planner.mission.safety import SafetyLimits
+from planner.report.figure_worker import FigureWorker
 from planner.survey.area import SurveyArea, load_area
 from planner.survey.lawnmower import plan_survey
 from planner.survey.mission_files import write_outputs
 from planner.survey.plan import SurveyPlan
-from planner.survey.plot import plot_plan
 from sim_harness.autopilot.autopilot import AutopilotConfig
 from sim_harness.clock import SimClock
 from sim_harness.errors import ClockStopped
@@ -158,6 +158,7 @@ def run_dry_dive(
     *,
     progress: Callable[[float, float, str], None] | None = None,
     write_frames: bool = False,
+    figures: FigureWorker | None = None,
 ) -> DryRun:
     """Plan the scenario's survey, dry-run it against the software vehicle, write the run folder.
 
@@ -165,7 +166,8 @@ def run_dry_dive(
     :mod:`planner.mission.output_folder`). ``progress(sim_s, planned_s, state)`` is called
     every control cycle, and once more with ``sim_s == planned_s`` when the dive is over
     and the run folder is being written; whatever it raises (a KeyboardInterrupt) ends
-    the dive and is raised here.
+    the dive and is raised here. ``figures``: a figure process that draws the plan's and the
+    map's pictures while this process flies and writes (:mod:`planner.report.figure_worker`).
     """
     del write_frames
     wall0 = time.perf_counter()
@@ -174,7 +176,12 @@ def run_dry_dive(
     settings, area, plan = prepared.settings, prepared.area, prepared.plan
     run = RunFolder(out_dir)
     write_outputs(plan, area, run.path("plan"))
-    plot_plan(plan, area, run.path("plan/survey.png"))
+    if figures is not None:
+        figures.submit("plan", plan, area, run.path("plan/survey.png"))
+    else:
+        from planner.survey.plot import plot_plan  # matplotlib
+
+        plot_plan(plan, area, run.path("plan/survey.png"))
     run.write_json("truth.json", truth_document(scene, origin))
 
     clock = SimClock()
@@ -296,7 +303,7 @@ def run_dry_dive(
             progress(max(planned_s, clock.now_s()), max(planned_s, clock.now_s()),
                      f"{result.state} at {clock.now_s():.0f} s, writing the run folder")
         excursions = altitude_watch.finish(result.end_s)
-        products = write_products(run, executor.onboard, executor.map_origin, final=True,
+        products = write_products(run, executor.onboard, executor.map_origin, final=True, figures=figures,
                                   truth_points=tuple((t.north_m, t.east_m, t.height_m) for t in scene.world.targets))
         truth_extra = score_against_truth(run, sim, settings, result, products.targets,
                                           n_beams=renderer.config.n_beams, truth_targets=scene.world.targets,
@@ -311,6 +318,8 @@ def run_dry_dive(
                                    extra={"scenario": scenario.name, "min_altitude_allowed_m": settings.min_altitude_m,
                                           "altitude_excursions": [ex.to_dict() for ex in excursions], **truth_extra})
         run.write_json("summary.json", summary)
+        if figures is not None:
+            figures.wait_all()  # the plan's and the map's pictures are in the folder before it is complete
         run.close()
         return DryRun(Path(out_dir), plan, result, summary, sim)
     finally:
@@ -323,6 +332,7 @@ def dry_dive_into(
     *,
     overwrite: bool = False,
     progress: Callable[[float, float, str], None] | None = None,
+    figures: FigureWorker | None = None,
 ) -> DryRun:
     """:func:`run_dry_dive` into the run folder ``out``, never losing what is there.
 
@@ -330,10 +340,16 @@ def dry_dive_into(
     complete (:func:`planner.mission.output_folder.staged_folder`): an existing folder
     needs ``overwrite`` and stays byte for byte as it was if the dive crashes or is
     interrupted; the stopped run is then kept beside it, its summary marked partial
-    (:func:`planner.mission.run_folder.mark_partial`).
+    (:func:`planner.mission.run_folder.mark_partial`). A figure process (``figures``) is
+    stopped before a failed run is set aside, so that nothing writes into it after.
     """
     with staged_folder(Path(out), kind="run", overwrite=overwrite, on_failure=mark_partial) as stage:
-        dry = run_dry_dive(prepared, stage, progress=progress)
+        try:
+            dry = run_dry_dive(prepared, stage, progress=progress, figures=figures)
+        except BaseException:
+            if figures is not None:
+                figures.close()
+            raise
     return replace(dry, out_dir=Path(out))
 
 

@@ -22,7 +22,7 @@ from perception.mapping.survey_map import SAME_TARGET_RADIUS_M, Drift
 from planner.mission.executor_config import DiveResult
 from planner.mission.onboard import OnboardPerception
 from planner.mission.run_folder import RunFolder
-from planner.report.map_plot import render_map_png
+from planner.report.figure_worker import FigureWorker
 
 TARGET_COLUMNS = ("id", "lat_deg", "lon_deg", "north_m", "east_m", "height_m", "height_std_m", "frames_used",
                   "frames_seen", "reason")
@@ -34,6 +34,7 @@ class Products:
 
     targets: tuple[MappedTarget, ...]
     raster: MapRaster | None
+    map_pending: bool = False  # mosaic_heights.png is being drawn by the figure process
 
 
 def write_products(
@@ -43,11 +44,14 @@ def write_products(
     *,
     truth_points: tuple[tuple[float, float, float], ...] = (),
     final: bool = False,
+    figures: FigureWorker | None = None,
 ) -> Products:
     """Write ``targets.geojson``, ``targets.csv`` and the mosaic files (atomically).
 
     ``truth_points`` (north, east, height) are drawn on the map picture in simulation.
-    The picture is rendered only when ``final`` (it is the slowest product).
+    The picture is rendered only when ``final`` (it is the slowest product); with
+    ``figures`` it is drawn there, meanwhile: take its result (:meth:`FigureWorker.result`,
+    :attr:`Products.map_pending`) before the run folder is complete.
     """
     targets = tuple(onboard.mapped_targets())
     write_targets_geojson(run.path("targets.geojson"), targets, origin)
@@ -65,7 +69,12 @@ def write_products(
     if raster is not None:
         write_geotiff(run.path("mosaic.tif"), raster, origin)
         write_png_with_world_file(run.path("mosaic.png"), raster, origin)
+        if final and figures is not None:
+            figures.submit("map", run.path("mosaic_heights.png"), raster, targets, truth=truth_points)
+            return Products(targets, raster, map_pending=True)
         if final:
+            from planner.report.map_plot import render_map_png  # matplotlib: only when a map is drawn
+
             render_map_png(run.path("mosaic_heights.png"), raster, targets, truth=truth_points)
     return Products(targets, raster)
 

@@ -20,10 +20,18 @@ from typing import Any
 import numpy as np
 
 from perception.atomic_file import atomic_write_text
-from planner.report.data import RUN_FILES, Event, RunData, RunFolderError, load_run
+from planner.report.data import Event, RunData, RunFolderError, load_run
+from planner.report.figure_worker import CHILD_REPORT_FIGURES, FigureWorker
 from planner.report.height_score import HeightScore, Matching, match_targets, score_heights
 from planner.report.key_figures import key_figures, nan_stat
 from planner.report.md import cell, fmt, short, table
+from planner.report.report_figures import (
+    DEFAULT_MATCH_RADIUS_M,
+    FIGURE_DIR,
+    REPORT_FIGURES,
+    draw_figures,
+    load_scored,
+)
 from planner.report.shadows import margin_lines, shadows_section
 from planner.report.timeline import ALERT_KINDS, TERMINAL_STATES, StateSpan, state_at, state_spans
 
@@ -31,9 +39,6 @@ __all__ = ["FIGURE_DIR", "REPORT_NAME", "Matching", "HeightScore", "RunFolderErr
            "load_run", "match_targets", "render_markdown", "score_heights"]
 
 REPORT_NAME = "report.md"
-FIGURE_DIR = "report"
-#: Default largest distance between an estimated and a true target to count as one, m.
-DEFAULT_MATCH_RADIUS_M = 1.0
 #: Event kinds listed one by one in the events table.
 LISTED_KINDS = ("warning", *ALERT_KINDS)
 
@@ -290,8 +295,12 @@ def render_markdown(run: RunData, figures: Mapping[str, Path | None], score: Hei
     return "\n".join(lines).rstrip() + "\n"
 
 
-def generate_report(run_dir: Path | str, *, match_radius_m: float = DEFAULT_MATCH_RADIUS_M, dpi: int = 110) -> Path:
+def generate_report(run_dir: Path | str, *, match_radius_m: float = DEFAULT_MATCH_RADIUS_M, dpi: int = 110,
+                    helper: FigureWorker | None = None) -> Path:
     """Read the run folder, draw the figures into ``<run>/report/``, write ``<run>/report.md``.
+
+    ``helper``: a figure process that draws some of the figures meanwhile
+    (:data:`~planner.report.figure_worker.CHILD_REPORT_FIGURES`); the files are the same.
 
     Returns
     -------
@@ -308,23 +317,18 @@ def generate_report(run_dir: Path | str, *, match_radius_m: float = DEFAULT_MATC
     ValueError
         For a match radius that is not positive.
     """
-    from planner.report.figures import figure_altitude, figure_heights, figure_tilt, figure_track  # matplotlib
-
-    run = load_run(Path(run_dir))
-    if run.empty:
-        raise RunFolderError(run.root, f"not a run folder: it holds none of {', '.join(RUN_FILES)}; nothing to "
-                             "report")
-    score = None
-    if run.truth is not None and run.targets is not None:
-        score = score_heights(run.targets, run.truth, radius_m=match_radius_m)
+    run, score = load_scored(Path(run_dir), match_radius_m)
     out = run.root / FIGURE_DIR
     out.mkdir(exist_ok=True)
-    figures = {
-        "track": figure_track(run, out / "track.png", dpi=dpi),
-        "altitude": figure_altitude(run, out / "altitude.png", dpi=dpi),
-        "tilt": figure_tilt(run, out / "tilt.png", dpi=dpi),
-        "heights": figure_heights(run, score, out / "heights.png", dpi=dpi) if score is not None else None,
-    }
+    names = [n for n in REPORT_FIGURES if n != "heights" or score is not None]
+    theirs = [n for n in names if helper is not None and n in CHILD_REPORT_FIGURES]
+    if theirs:
+        assert helper is not None
+        helper.submit("report", run.root, theirs, match_radius_m=match_radius_m, dpi=dpi)
+    drawn = draw_figures(run, score, [n for n in names if n not in theirs], dpi=dpi)
+    if theirs:
+        drawn.update(helper.result())
+    figures = {name: drawn.get(name) for name in REPORT_FIGURES}
     for name, path in figures.items():
         stale = out / f"{name}.png"
         if path is None and stale.is_file():

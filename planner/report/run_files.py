@@ -47,6 +47,15 @@ class RunFolderError(ValueError):
         super().__init__(f"{where}: {message}")
         self.path = path
         self.line = line
+        self._message = message
+
+    def __reduce__(self) -> tuple[object, ...]:
+        # Rebuilt from its own arguments (a figure process sends it back to the dive's).
+        return _rebuild_run_folder_error, (self.path, self._message, self.line)
+
+
+def _rebuild_run_folder_error(path: Path, message: str, line: int | None) -> RunFolderError:
+    return RunFolderError(path, message, line=line)
 
 
 @dataclass(frozen=True)
