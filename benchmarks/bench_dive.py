@@ -150,9 +150,9 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     print("## Whole dives\n")
     print(f"Machine: {os.uname().machine}, {os.cpu_count()} cores, Python {sys.version.split()[0]}; "
-          f"load average {os.getloadavg()[0]:.1f}. CPU s counts the dive's process and its two helper "
-          "processes (the sonar render process and the on-board map process); peak RSS is the sum over "
-          "the three, sampled every 0.2 s, and in brackets the largest peak of any one.\n")
+          f"load average {os.getloadavg()[0]:.1f}. CPU s counts the dive's process and its three helper "
+          "processes (the sonar render process, the on-board map process and the figure process); peak RSS "
+          "is the sum over the four, sampled every 0.2 s, and in brackets the largest peak of any one.\n")
     print("\n".join(measure(tuple(args.scenarios), args.repeats)))
 
 
