@@ -27,6 +27,7 @@ Rows are image rows (fractional); conversion to slant range is the caller's.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -112,30 +113,69 @@ def _window_means(cum: FloatArray, start: NDArray[np.intp], stop: NDArray[np.int
     return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
-def _smoothed_at(cum: FloatArray, rows: NDArray[np.intp], h: int) -> FloatArray:
-    """Mean of the ``2 h + 1`` rows centred on each of ``rows`` (fewer at the ends) of the
-    values behind ``cum``; ``rows`` of shape (w, n), one column per column of ``cum``."""
+def _crossings(cum: FloatArray, h: int, level: FloatArray, start: NDArray[np.intp], stop: NDArray[np.intp],
+               *, last: tuple[bool, ...]) -> FloatArray:
+    """Per column of ``cum`` and per kind of edge (the rows of ``level``, ``start`` and
+    ``stop``, shape (k, n)), the first row in ``start .. stop - 1`` -- the last for the kinds
+    flagged in ``last`` -- whose smoothed value (the mean of the ``2 h + 1`` rows centred on
+    it, fewer at the ends, of the values behind ``cum``) is at least ``level`` (NaN: none).
+
+    All kinds in one pass: their windows side by side, as wide as the widest (the rows past
+    a window's own end are outside it, so its answer is the same)."""
     m = cum.shape[0] - 1
-    cols = np.arange(cum.shape[1])[None, :]
+    n_kinds, n = level.shape
+    width = max(1, int(np.maximum.reduce(stop - start, axis=None)) if start.size else 1)
+    rows = start.reshape(1, -1) + np.arange(width)[:, None]
+    inside = (rows < stop.reshape(1, -1)) & (rows >= 0) & (rows < m)
+    # Flat indices into ``cum`` (one take each: cheaper than indexing by rows and columns).
+    cols = _tiled_columns(n, n_kinds)
     a = np.minimum(np.maximum(rows - h, 0), m)
-    b = np.minimum(np.maximum(rows + h + 1, 0), m)
-    return (cum[b, cols] - cum[a, cols]) / np.maximum(b - a, 1)
-
-
-def _crossing(cum: FloatArray, h: int, level: FloatArray, start: NDArray[np.intp], stop: NDArray[np.intp],
-              *, last: bool) -> FloatArray:
-    """Per column, the first (or ``last``) row in ``start .. stop - 1`` whose smoothed value
-    (:func:`_smoothed_at`) is at least ``level`` (NaN: none)."""
-    width = max(1, int(np.max(stop - start)) if start.size else 1)
-    rows = start[None, :] + np.arange(width)[:, None]
-    inside = (rows < stop[None, :]) & (rows >= 0) & (rows < cum.shape[0] - 1)
-    hit = (_smoothed_at(cum, rows, h) >= level[None, :]) & inside
+    b = np.minimum(np.maximum(rows + (h + 1), 0), m)
+    count = np.maximum(b - a, 1)
+    a *= n
+    a += cols
+    b *= n
+    b += cols
+    smoothed = cum.take(b)
+    smoothed -= cum.take(a)
+    smoothed /= count
+    hit = (smoothed >= level.reshape(1, -1)) & inside
     found = hit.any(axis=0)
-    if last:
-        at = width - 1 - hit[::-1].argmax(axis=0)
-    else:
-        at = hit.argmax(axis=0)
-    return np.where(found, start + at, np.nan)
+    at = hit.argmax(axis=0)
+    for k in range(n_kinds):
+        if last[k]:
+            at[k * n : (k + 1) * n] = width - 1 - hit[::-1, k * n : (k + 1) * n].argmax(axis=0)
+    return np.where(found, start.ravel() + at, np.nan).reshape(n_kinds, n)
+
+
+def _column_rows(start: NDArray[np.intp], length: int, last: int) -> NDArray[np.intp]:
+    """Rows ``start .. start + length - 1`` of each column, none past ``last``, shape (length, n)."""
+    rows = start[None, :] + np.arange(length)[:, None]
+    if int(np.maximum.reduce(start)) + length - 1 > last:
+        np.minimum(rows, last, out=rows)
+    return rows
+
+
+def _run_means(cum: FloatArray, size: int) -> FloatArray:
+    """Mean of rows ``i .. i + size - 1`` (fewer at the end) of the values behind ``cum``, for
+    each row ``i``, shape (M, n): ``(cum[i + size] - cum[i]) / size``, the end's rows over
+    what is left."""
+    m = cum.shape[0] - 1
+    head = max(m - size, 0)
+    out = np.empty((m, cum.shape[1]))
+    np.subtract(cum[size : size + head], cum[:head], out=out[:head])
+    out[:head] /= size
+    np.subtract(cum[m], cum[head:m], out=out[head:])
+    out[head:] /= (m - np.arange(head, m))[:, None]
+    return out
+
+
+@functools.lru_cache(maxsize=16)
+def _tiled_columns(n: int, n_kinds: int) -> NDArray[np.intp]:
+    """0 .. n - 1, ``n_kinds`` times over, read-only."""
+    cols = np.tile(np.arange(n), n_kinds)
+    cols.flags.writeable = False
+    return cols
 
 
 def _aligned_fits(
@@ -220,9 +260,15 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     start_row = np.where(has_h, np.minimum(t_first, s_first), s_first) - reach - level_n
     lo = np.maximum(start_row, 0)
     hi = np.minimum(s_last + d + reach, n_rows)
-    length = max(int(np.max(hi - lo)), 1)
-    rows = np.minimum(lo[None, :] + np.arange(length)[:, None], n_rows - 1)
-    power = seg.power_of(seg.levels[rows, beams[None, :]])
+    length = max(int(np.maximum.reduce(hi - lo)), 1)
+    # Each beam's rows lo .. lo + length - 1 (the last row repeated past the image's end);
+    # the levels read by flat index (one take: cheaper than indexing by rows and columns).
+    first_row, last_row = int(np.minimum.reduce(lo)), min(int(np.maximum.reduce(lo)) + length - 1, n_rows - 1)
+    rows = _column_rows(lo - first_row, length, last_row - first_row)  # from first_row
+    n_cols = seg.levels.shape[1]
+    flat = rows * n_cols
+    flat += first_row * n_cols + beams
+    power = seg.power_of(seg.levels.ravel().take(flat))
     m_rows = length
     cum = np.zeros((m_rows + 1, beams.size))
     np.cumsum(power, axis=0, out=cum[1:])
@@ -235,8 +281,7 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     sf, sl = s_first - lo, s_last - lo
     half_level = max(2, level_n // 2)
     # run[i]: mean of rows i .. i + half_level - 1 (fewer at the end)
-    stop = np.minimum(np.arange(m_rows) + half_level, m_rows)
-    run = (cum[stop] - cum[:-1]) / (stop - np.arange(m_rows))[:, None]
+    run = _run_means(cum, half_level)
     local = np.arange(m_rows)[:, None]
     # The region's rows, within each beam's band (the dark beyond the band's far edge is
     # no part of a shadow that ends before it).
@@ -244,9 +289,9 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     in_region = ((local >= np.maximum(sf - d, band_start)[None, :])
                  & (local <= np.minimum(sl + d, band_stop + 1)[None, :] - half_level + 1))
     floor = np.where(in_region, run, np.inf).min(axis=0)
-    first_row = int(lo.min())  # the seabed's level at the rows taken, in linear power
-    taken = np.asarray(seg.background[first_row : int(rows.max()) + 1], dtype=np.float32)
-    b_lin = seg.power_of(taken)[rows - first_row]
+    # The seabed's level at the rows taken, in linear power.
+    taken = np.asarray(seg.background_rows(first_row, last_row + 1), dtype=np.float32)
+    b_lin = seg.power_of(taken).take(rows)
     deep = (run * run < floor[None, :] * b_lin) & in_region
     found = deep.any(axis=0)
     deep_start = np.where(found, deep.argmax(axis=0), sf)
@@ -274,13 +319,17 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     dark_before = ~(echo_db >= cut_level_db)
     dark_after = ~(depth_db >= cut_level_db) | ~seabed_inside
     # Each rough edge lies between two rows: at the last bright row + 0.5, the first - 0.5.
-    rough_top = _crossing(cum, h, 0.5 * (echo_level + shadow_level), deep_start - d - level_n, interior_a,
-                          last=True) + 0.5
-    rough_end = _crossing(cum, h, 0.5 * (seabed_level + shadow_level), interior_b, f_a + level_n,
-                          last=False) - 0.5
     # The target's near edge: the rise from the seabed before a highlight to the highlight.
-    rough_near = _crossing(cum, h, 0.5 * (near_before + near_inside), tf - d - level_n, tf + d + 1,
-                           last=False) - 0.5
+    top_end_near = _crossings(
+        cum, h,
+        np.stack([0.5 * (echo_level + shadow_level), 0.5 * (seabed_level + shadow_level), 0.5 * (near_before + near_inside)]),
+        np.stack([deep_start - d - level_n, interior_b, tf - d - level_n]),
+        np.stack([interior_a, f_a + level_n, tf + d + 1]),
+        last=(True, False, False),
+    )
+    rough_top = top_end_near[0] + 0.5
+    rough_end = top_end_near[1] - 0.5
+    rough_near = top_end_near[2] - 0.5
     use_top = present & ~dark_before & ~dark_after
     use_near = use_top & has_h & (near_inside > near_before)
     offsets, stds, blurs = _aligned_fits(power, (

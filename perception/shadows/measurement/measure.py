@@ -26,10 +26,12 @@ many beams, and is not used for a height.
 
 from __future__ import annotations
 
+import functools
+import inspect
+import itertools
 import math
-import statistics
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -105,6 +107,12 @@ class ShadowMeasurement:
         shadow, dB (NaN when not measured).
     cut_by : tuple of str
         The edges that cut it (keys of :data:`TRUNCATION_REASONS`); empty when none does.
+
+    A frame builds one per target, so the class writes its own ``__init__`` (as
+    :class:`perception.shadows.segmentation.grid.Region` does): it stores the fields in the
+    instance's ``__dict__`` at once instead of one ``object.__setattr__`` at a time, at
+    about a third of the cost (same object: equal, same hash, repr and pickle). Its
+    parameters are the fields, in order, with their defaults (checked when the module loads).
     """
 
     azimuth_rad: float
@@ -127,10 +135,37 @@ class ShadowMeasurement:
     depth_db: float = math.nan
     cut_by: tuple[str, ...] = ()
 
+    def __init__(self, azimuth_rad: float, r_top_m: float, r_end_m: float, sigma_r_m: float,
+                 highlight_range_m: float, columns: tuple[int, ...], r_top_per_beam_m: tuple[float, ...],
+                 r_end_per_beam_m: tuple[float, ...], truncated: bool, reason: str | None, overlap: float,
+                 shadow_width_beams: int, r_near_m: float = math.nan, r_near_per_beam_m: tuple[float, ...] = (),
+                 azimuth_per_beam_rad: tuple[float, ...] = (), has_highlight: bool = True,
+                 echo_db: float = math.nan, depth_db: float = math.nan, cut_by: tuple[str, ...] = ()) -> None:
+        self.__dict__.update(
+            azimuth_rad=azimuth_rad, r_top_m=r_top_m, r_end_m=r_end_m, sigma_r_m=sigma_r_m,
+            highlight_range_m=highlight_range_m, columns=columns, r_top_per_beam_m=r_top_per_beam_m,
+            r_end_per_beam_m=r_end_per_beam_m, truncated=truncated, reason=reason, overlap=overlap,
+            shadow_width_beams=shadow_width_beams, r_near_m=r_near_m, r_near_per_beam_m=r_near_per_beam_m,
+            azimuth_per_beam_rad=azimuth_per_beam_rad, has_highlight=has_highlight, echo_db=echo_db,
+            depth_db=depth_db, cut_by=cut_by,
+        )
+
     @property
     def usable(self) -> bool:
         """True when the measurement can give a height."""
         return not self.truncated and math.isfinite(self.r_top_m) and math.isfinite(self.r_end_m)
+
+
+def _same_parameters_as_fields(cls: type) -> bool:
+    """Whether ``cls.__init__`` takes exactly the dataclass's fields, in order, with their defaults."""
+    params = list(inspect.signature(cls.__init__).parameters.values())[1:]
+    return [(p.name, repr(p.default)) for p in params] == [
+        (f.name, repr(inspect.Parameter.empty if f.default is MISSING else f.default)) for f in fields(cls)
+    ]
+
+
+if not _same_parameters_as_fields(ShadowMeasurement):
+    raise TypeError("ShadowMeasurement.__init__ must take exactly its fields, in order, with their defaults")
 
 
 def measure_pair(
@@ -166,6 +201,14 @@ def _cuts(pair: Pair, edges: FrameEdges, n: int, segmentation: Segmentation) -> 
     return reasons
 
 
+@functools.lru_cache(maxsize=8)
+def _row_axis(n_rows: int) -> NDArray[np.float64]:
+    """0 .. n_rows - 1 as float64, read-only: the rows at which ``range_m`` is given."""
+    axis = np.arange(n_rows, dtype=np.float64)
+    axis.flags.writeable = False
+    return axis
+
+
 #: A beam whose shadow is shorter than this fraction of the pair's median shadow crosses the
 #: target's side (a corner, the rounded edge of its top): left out of the pair's ranges.
 SIDE_LENGTH_FRACTION = 0.75
@@ -176,8 +219,14 @@ def _without_sides(top: list[float], end: list[float], azimuth: list[float]) -> 
     side (shadow under :data:`SIDE_LENGTH_FRACTION` of the median length). Plain Python: a
     pair has a few dozen beams at most."""
     lengths = [e - t for t, e in zip(top, end, strict=True)]
-    least = SIDE_LENGTH_FRACTION * statistics.median(lengths)
-    keep = [i for i, length in enumerate(lengths) if length >= least] or list(range(len(top)))
+    n = len(lengths)
+    ordered = sorted(lengths)
+    half = n // 2
+    median = ordered[half] if n % 2 else (ordered[half - 1] + ordered[half]) / 2  # statistics.median's
+    least = SIDE_LENGTH_FRACTION * median
+    if ordered[0] >= least:  # no beam crosses a side (the usual case): every beam, in order
+        return sum(top) / n, sum(end) / n, sum(azimuth) / n
+    keep = [i for i, length in enumerate(lengths) if length >= least] or list(range(n))
     k = len(keep)
     return (sum(top[i] for i in keep) / k, sum(end[i] for i in keep) / k, sum(azimuth[i] for i in keep) / k)
 
@@ -215,25 +264,28 @@ def measure_pairs(
     edges = find_edges(segmentation, pairs, cfg)
     n_rows = segmentation.n_rows
     n_pairs = len(pairs)
-    rows_axis = np.arange(n_rows, dtype=np.float64)
     sample_m = float(range_m[-1] - range_m[0]) / max(range_m.size - 1, 1)
-    # Every beam's ranges at once; each pair's beams are a run of the good beams (in pair order).
+    # Every beam's ranges at once (the three edges in one interpolation; the near edge's
+    # missing rows read at row 0, then NaN); each pair's beams are a run of the good beams
+    # (in pair order).
     good = np.flatnonzero(edges.good)
+    n_beams = good.size
     owner = edges.owner[good]
-    top = np.interp(edges.top_rows[good], rows_axis, range_m)
-    end = np.interp(edges.end_rows[good], rows_axis, range_m)
     near_rows = edges.near_rows[good]
     near_ok = np.isfinite(near_rows)
-    near = np.where(near_ok, np.interp(np.where(near_ok, near_rows, 0.0), rows_axis, range_m), np.nan)
+    ranges = np.interp(np.concatenate((edges.top_rows[good], edges.end_rows[good], np.where(near_ok, near_rows, 0.0))),
+                       _row_axis(n_rows), range_m)
+    near = np.where(near_ok, ranges[2 * n_beams :], np.nan)
     azimuth = np.asarray(beam_azimuth_rad, dtype=np.float64)[edges.beams[good]]
-    n_good = np.bincount(owner, minlength=n_pairs)
     with np.errstate(invalid="ignore", divide="ignore"):
         mean_near = (np.bincount(owner, weights=np.where(near_ok, near, 0.0), minlength=n_pairs)
-                     / np.bincount(owner, weights=near_ok, minlength=n_pairs))
-    std_rows = np.maximum(np.fmax(edges.top_std_rows, edges.end_std_rows), MIN_EDGE_STD_SAMPLES)
-    bounds = np.concatenate([[0], np.cumsum(n_good)]).tolist()
+                     / np.bincount(owner, weights=near_ok, minlength=n_pairs)).tolist()
+    std_rows = np.maximum(np.fmax(edges.top_std_rows, edges.end_std_rows), MIN_EDGE_STD_SAMPLES).tolist()
+    bounds = list(itertools.accumulate(np.bincount(owner, minlength=n_pairs).tolist(), initial=0))
     columns = edges.beams[good].tolist()
-    top_l, end_l, near_l, azimuth_l = top.tolist(), end.tolist(), near.tolist(), azimuth.tolist()
+    top_l, end_l = ranges[:n_beams].tolist(), ranges[n_beams : 2 * n_beams].tolist()
+    near_l, azimuth_l = near.tolist(), azimuth.tolist()
+    echo_l, depth_l = edges.echo_db.tolist(), edges.depth_db.tolist()
     out = []
     for n, pair in enumerate(pairs):
         cuts = _cuts(pair, edges, n, segmentation)
@@ -242,7 +294,7 @@ def measure_pairs(
         highlight_m = (float(range_m[pair.highlight.row_start]) if pair.highlight is not None
                        else float(range_m[min(pair.shadow.row_start, n_rows - 1)]))
         a, b = bounds[n], bounds[n + 1]
-        echo, depth = float(edges.echo_db[n]), float(edges.depth_db[n])
+        echo, depth = echo_l[n], depth_l[n]
         if b - a < cfg.min_beams:
             if not reasons:
                 reasons.append(f"no central beam of the shadow gave both its edges (of {int(edges.n_central[n])})")
@@ -254,13 +306,13 @@ def measure_pairs(
                 has_highlight=pair.highlight is not None, echo_db=echo, depth_db=depth, cut_by=cut_by,
             ))
             continue
-        r_near = float(mean_near[n])
+        r_near = mean_near[n]
         r_top, r_end, azimuth = _without_sides(top_l[a:b], end_l[a:b], azimuth_l[a:b])
         out.append(ShadowMeasurement(
             azimuth_rad=azimuth,
             r_top_m=r_top,
             r_end_m=r_end,
-            sigma_r_m=float(std_rows[n]) * sample_m,
+            sigma_r_m=std_rows[n] * sample_m,
             highlight_range_m=r_near if math.isfinite(r_near) else highlight_m,
             columns=tuple(columns[a:b]),
             r_top_per_beam_m=tuple(top_l[a:b]),

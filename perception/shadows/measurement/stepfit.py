@@ -62,6 +62,9 @@ DAMPING = 0.01
 MAX_EDGE_STEP_SAMPLES = 0.5
 MAX_LOG_BLUR_STEP = 0.35
 _SQRT_2PI = math.sqrt(2.0 * math.pi)
+#: The 4 x 4 identity, (1, 4, 4), read-only (the Fisher matrices' regularisation).
+_EYE4 = np.eye(4)[None]
+_EYE4.flags.writeable = False
 
 
 @dataclass(frozen=True)
@@ -136,10 +139,11 @@ def _search(y: FloatArray, w: FloatArray, bank: _Bank, sign: FloatArray) -> _Sea
     """Weighted least squares of every profile against every template (one product)."""
     n = y.shape[0]
     k = bank.t.shape[1]
-    wy = w * y
-    sw = np.add.reduce(w, axis=1)[:, None]
-    sy = np.add.reduce(wy, axis=1)[:, None]
-    sums = np.concatenate((w, wy)) @ bank.t_t2  # rows: w then wy; columns: t then t2
+    w_wy = np.empty((2 * n, y.shape[1]))  # rows: w then w y (their sums, and the product's rows)
+    w_wy[:n] = w
+    np.multiply(w, y, out=w_wy[n:])
+    sw, sy = np.add.reduce(w_wy, axis=1).reshape(2, n, 1)
+    sums = w_wy @ bank.t_t2  # rows: w then wy; columns: t then t2
     sp = sums[:n, :k]
     num = sums[n:, :k] * sw
     num -= sp * sy  # sw * spy - sp * sy: b times det
@@ -158,9 +162,14 @@ def _search(y: FloatArray, w: FloatArray, bank: _Bank, sign: FloatArray) -> _Sea
 
 def _levels(phi: FloatArray, y: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Weighted least-squares ``a, b`` of ``y = a + b phi`` per profile (rows)."""
-    wp = w * phi
-    sw, sp, spp = np.add.reduce(w, axis=1), np.add.reduce(wp, axis=1), np.add.reduce(wp * phi, axis=1)
-    sy, spy = np.add.reduce(w * y, axis=1), np.add.reduce(wp * y, axis=1)
+    # The five sums in one reduction (each row's sum as on its own).
+    terms = np.empty((5, *w.shape))
+    terms[0] = w
+    wp = np.multiply(w, phi, out=terms[1])
+    np.multiply(wp, phi, out=terms[2])
+    np.multiply(w, y, out=terms[3])
+    np.multiply(wp, y, out=terms[4])
+    sw, sp, spp, sy, spy = np.add.reduce(terms, axis=2)
     det = sw * spp - sp * sp
     det = np.where(np.abs(det) > 1e-12 * np.maximum(sw * spp, 1e-300), det, np.nan)
     b = (sw * spy - sp * sy) / det
@@ -168,10 +177,12 @@ def _levels(phi: FloatArray, y: FloatArray, w: FloatArray) -> tuple[FloatArray, 
     return a, b
 
 
-def _gamma_weights(w: FloatArray, a: FloatArray, b: FloatArray, phi: FloatArray) -> FloatArray:
-    """``w / mean^2`` of the model ``a + b phi`` (levels (n,), phi (n, m)), the mean floored."""
+def _gamma_weights(w: FloatArray, a: FloatArray, b: FloatArray, phi: FloatArray,
+                   model: FloatArray | None = None) -> FloatArray:
+    """``w / mean^2`` of the model ``a + b phi`` (levels (n,), phi (n, m); ``model`` when
+    already computed), the mean floored."""
     floor = FLOOR_FRACTION * np.maximum(np.abs(a), np.abs(a + b)) + 1e-300
-    mean = np.maximum(a[:, None] + b[:, None] * phi, floor[:, None])
+    mean = np.maximum(a[:, None] + b[:, None] * phi if model is None else model, floor[:, None])
     return w / (mean * mean)
 
 
@@ -257,13 +268,15 @@ def fit_steps(
     cols = np.arange(m)[None, :] + shift[:, None]
     valid = (cols >= 0) & (cols < m)
     cols = np.minimum(np.maximum(cols, 0), m - 1)
+    cols += (rows * m)[:, None]  # flat indices (one take each)
     wt = _gamma_weights(w, found.a, found.b, coarse.t[:, found.best].T)
-    y_s = np.where(valid, y[rows[:, None], cols], 0.0)
-    wt_s = np.where(valid, wt[rows[:, None], cols], 0.0)
+    y_s = np.where(valid, y.take(cols), 0.0)
+    wt_s = np.where(valid, wt.take(cols), 0.0)
     fine = _bank(m, float(edge0), FINE_REACH_SAMPLES, FINE_STEP_SAMPLES, FINE_BLURS, widest)
     found = _search(y_s, wt_s, fine, sign)
+    w_s = np.where(valid, w.take(cols), 0.0)
     for _ in range(FINE_REWEIGHTS):
-        wt_s = _gamma_weights(np.where(valid, w[rows[:, None], cols], 0.0), found.a, found.b, fine.t[:, found.best].T)
+        wt_s = _gamma_weights(w_s, found.a, found.b, fine.t[:, found.best].T)
         found = _search(y_s, wt_s, fine, sign)
     n_blurs = fine.n_blurs
     n_off = fine.offsets.size // n_blurs
@@ -280,23 +293,34 @@ def fit_steps(
     x = np.arange(m, dtype=np.float64)[None, :]
     log_s = np.log(blur)
     phi = ndtr((x0[:, None] - x) / blur[:, None])
+    model = a[:, None] + b[:, None] * phi
+    # The last pass's Jacobian of all four parameters (levels, edge, blur), for the 1-sigma.
+    jac = np.empty((n, 4, m))
+    jac[:, 0] = 1.0
+    # The gradient's and the Hessian's five sums, in one reduction (each row's sum as on its own).
+    terms = np.empty((5, n, m))
     for it in range(GN_ITERATIONS + 1):
-        wt = _gamma_weights(w, a, b, phi)
+        wt = _gamma_weights(w, a, b, phi, model)
         s_now = np.exp(log_s)
         z = (x0[:, None] - x) / s_now[:, None]
         phi = ndtr(z)
         a, b = _levels(phi, y, wt)
-        r = y - (a[:, None] + b[:, None] * phi)
+        model = a[:, None] + b[:, None] * phi
+        r = y - model
         dens = np.exp(-0.5 * z * z) * (1.0 / _SQRT_2PI)
-        j0 = (b / s_now)[:, None] * dens
-        j1 = -b[:, None] * dens * z
+        j0 = np.multiply((b / s_now)[:, None], dens, out=jac[:, 2])
+        j1 = np.multiply(-b[:, None] * dens, z, out=jac[:, 3])
         if it == GN_ITERATIONS:
             break  # the last pass only gives the edge's 1-sigma
         wj0, wj1 = wt * j0, wt * j1
-        g0, g1 = np.add.reduce(wj0 * r, axis=1), np.add.reduce(wj1 * r, axis=1)
-        h00 = np.add.reduce(wj0 * j0, axis=1) * (1.0 + DAMPING)
-        h01 = np.add.reduce(wj0 * j1, axis=1)
-        h11 = np.add.reduce(wj1 * j1, axis=1) * (1.0 + DAMPING)
+        np.multiply(wj0, r, out=terms[0])
+        np.multiply(wj1, r, out=terms[1])
+        np.multiply(wj0, j0, out=terms[2])
+        np.multiply(wj0, j1, out=terms[3])
+        np.multiply(wj1, j1, out=terms[4])
+        g0, g1, h00, h01, h11 = np.add.reduce(terms, axis=2)
+        h00 *= 1.0 + DAMPING
+        h11 *= 1.0 + DAMPING
         det = h00 * h11 - h01 * h01
         det = np.where(det > 0, det, np.inf)
         step_x = np.minimum(np.maximum((h11 * g0 - h01 * g1) / det, -MAX_EDGE_STEP_SAMPLES), MAX_EDGE_STEP_SAMPLES)
@@ -307,9 +331,9 @@ def fit_steps(
     # The edge's 1-sigma from the weighted residuals and the Jacobian of all four parameters
     # (levels, edge, blur): the levels' errors move the fitted edge too.
     var_res = np.add.reduce(wt * r * r, axis=1) / np.maximum(np.add.reduce(w, axis=1) - 4.0, 1.0)
-    jac = np.stack([np.ones_like(phi), phi, j0, j1], axis=1)  # (n, 4, m)
+    jac[:, 1] = phi
     fisher = np.einsum("nim,njm->nij", jac * wt[:, None, :], jac)
-    fisher += np.eye(4)[None] * (1e-12 * np.trace(fisher, axis1=1, axis2=2)[:, None, None] + 1e-300)
+    fisher += _EYE4 * (1e-12 * fisher.trace(axis1=1, axis2=2)[:, None, None] + 1e-300)
     h00 = 1.0 / np.linalg.inv(fisher)[:, 2, 2]
     edge_std = np.sqrt(var_res / h00)
     ok = (sign * b > 0) & np.isfinite(x0) & np.isfinite(edge_std) & (x0 > first) & (x0 < last)

@@ -159,9 +159,21 @@ class Segmentation:
     @functools.cached_property
     def background(self) -> NDArray[np.float32]:
         """Seabed level of each full-resolution row, shape (n_samples,), float32, level units."""
+        return self._background_at(np.arange(self.n_rows))
+
+    def background_rows(self, start: int, stop: int) -> NDArray[np.float32]:
+        """``background[start:stop]`` (0 <= start <= stop <= n_samples), interpolated at those
+        rows only unless the whole is known (the measurement reads a few hundred rows of a
+        frame's thousands): the same values, each row's interpolation on its own."""
+        known = self.__dict__.get("background")
+        if known is not None:
+            return known[start:stop]
+        return self._background_at(np.arange(start, stop))
+
+    def _background_at(self, rows: NDArray[np.intp]) -> NDArray[np.float32]:
         d = self.row_step
         centres = (np.arange(self.grid_background.size) + 0.5) * d - 0.5
-        return np.interp(np.arange(self.n_rows), centres, self.grid_background).astype(np.float32)
+        return np.interp(rows, centres, self.grid_background).astype(np.float32)
 
     @functools.cached_property
     def insonified_rows(self) -> NDArray[np.bool_]:

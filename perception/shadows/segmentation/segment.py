@@ -213,9 +213,11 @@ def segment(
     weak = np.zeros((n_grid, n_cols), dtype=bool)
     shadow_in_edges(grid, background - np.float32(cfg.shadow_weak_sigmas) * spread, inner, out=weak)
     both[:, :n_cols] = hysteresis_along_beams(both[:, :n_cols].view(bool), weak).view(np.uint8)
-    in_band = band[:, None]
-    np.greater(grid, highlight_limit[:, None], out=both[:, n_cols + 1 :].view(bool))
-    both[:, n_cols + 1 :] &= in_band
+    # Highlights inside the band: its rows are one run (longest_run's), the others stay 0.
+    band_at = band.nonzero()[0]
+    if band_at.size:
+        b0, b1 = int(band_at[0]), int(band_at[-1]) + 1
+        np.greater(grid[b0:b1], highlight_limit[b0:b1, None], out=both[b0:b1, n_cols + 1 :].view(bool))
     labelled = label_mask(both.view(bool))
     shadow_core = low - np.float32(cfg.shadow_core_sigmas) * spread
     highlight_core = highlight_limit + np.float32(cfg.highlight_core_sigmas - cfg.highlight_sigmas) * spread
@@ -299,20 +301,22 @@ def hysteresis_along_beams(strong: NDArray[np.bool_], weak: NDArray[np.bool_]) -
     cols = np.flatnonzero(np.logical_or.reduce(strong, axis=0))
     if cols.size == 0:
         return out
-    mask = (weak[:, cols] | strong[:, cols])
+    mask = (weak | strong)[:, cols]  # (one gather of the columns: cheaper than two)
     occupied = np.flatnonzero(np.logical_or.reduce(mask, axis=1))
     r0, r1 = int(occupied[0]), int(occupied[-1]) + 1
     mask = mask[r0:r1]
     n_rows, n_cols = mask.shape
-    starts = mask.copy()
-    starts[1:] &= ~mask[:-1]
+    starts = np.empty(mask.shape, dtype=bool)  # a run's first row: set, the row before not
+    starts[0] = mask[0]
+    np.greater(mask[1:], mask[:-1], out=starts[1:])
+    # 1.. per run within a column (0 before its first; after a run, that run's id until the
+    # next: those rows are outside the mask, which the result is cut to).
     run_id = np.cumsum(starts, axis=0, dtype=np.int32)
-    run_id *= mask  # 1.. per run within a column, 0 outside
     run_id += (np.arange(n_cols, dtype=np.int32) * (n_rows + 1))[None, :]
     has = np.zeros(n_cols * (n_rows + 1), dtype=bool)
     has[run_id[strong[r0:r1, cols]]] = True
-    has[::n_rows + 1] = False  # id 0 of each column: outside any run
-    out[r0:r1, cols] = has[run_id]
+    has[::n_rows + 1] = False  # id 0 of each column: before any run
+    out[r0:r1, cols] = np.logical_and(has.take(run_id), mask)
     return out
 
 
@@ -327,14 +331,16 @@ def _core_pixels(
     Shadow pixels (left of the blank column) below their row's ``shadow_core``, highlight
     pixels (right of it) above ``highlight_core``.
     """
-    n_rows, n_cols = grid.shape
-    pixels = labelled.pixels
-    if pixels is None or pixels.size == 0:
+    n_cols = grid.shape[1]
+    rows, cols = labelled.rows, labelled.cols
+    if rows.size == 0:
         return np.zeros(labelled.n_labels, dtype=np.int64)
-    core = np.zeros((n_rows, 2 * n_cols + 1), dtype=bool)
-    np.less(grid, shadow_core[:, None], out=core[:, :n_cols])
-    np.greater(grid, highlight_core[:, None], out=core[:, n_cols + 1 :])
-    return np.bincount(labelled.pixel_labels[core.ravel().take(pixels)], minlength=labelled.n_labels)
+    # Tested at the labelled pixels only (a few percent of the grid): each one's grid value
+    # (a highlight pixel's column counted from the second mask's first) against its row's level.
+    highlight = cols > n_cols
+    values = grid.ravel().take(rows * n_cols + cols - highlight * (n_cols + 1))
+    core = np.where(highlight, values > highlight_core.take(rows), values < shadow_core.take(rows))
+    return np.bincount(labelled.pixel_labels[core], minlength=labelled.n_labels)
 
 
 def mask_iou(predicted: NDArray[np.bool_], truth: NDArray[np.bool_]) -> float:
