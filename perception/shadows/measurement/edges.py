@@ -209,7 +209,9 @@ def _aligned_fits(
     rows = base[None, :] + np.arange(-half, half + 1)[:, None]  # (2 half + 1, n_kinds n)
     valid = ok[None, :] & (rows >= lower[None, :]) & (rows < upper[None, :])
     at_rows = np.minimum(np.maximum(rows, 0), m_rows - 1)
-    values = np.where(valid, power[at_rows, np.tile(np.arange(n), n_kinds)[None, :]], 0.0)
+    at_rows *= n  # flat indices into ``power`` (one take: cheaper than indexing by rows and columns)
+    at_rows += _tiled_columns(n, n_kinds)
+    values = np.where(valid, power.take(at_rows), 0.0)
     # Sums over each group's beams by one product with the groups' indicator matrix.
     member = np.zeros((n_groups, group.size))
     member[group, np.arange(group.size)] = ok
@@ -241,12 +243,13 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     half = int(min(MAX_FIT_HALF_SAMPLES, max(4, round(cfg.fit_half_window_m / dr))))
     centrals = [central_beams(p.columns, cfg.central_fraction) for p in pairs]
     counts = np.array([len(c) for c in centrals], dtype=np.intp)
-    beams = np.array([c for central in centrals for c in central], dtype=np.intp)
-    owner = np.repeat(np.arange(n_pairs), counts)
-    if beams.size == 0:
+    if not any(centrals):
         return _empty(counts)
-    s_label = np.repeat(np.array([p.shadow.label for p in pairs]), counts)
-    h_label = np.repeat(np.array([p.highlight.label if p.highlight is not None else -1 for p in pairs]), counts)
+    # Per central beam: its column, its pair, the pair's shadow and highlight labels (-1: none);
+    # one array from lists (a frame has a few dozen such beams).
+    per_beam = [(c, n, p.shadow.label, -1 if p.highlight is None else p.highlight.label)
+                for n, (p, central) in enumerate(zip(pairs, centrals, strict=True)) for c in central]
+    beams, owner, s_label, h_label = np.array(list(zip(*per_beam)), dtype=np.intp)
     s_first = seg.shadow_rows[0][s_label, beams]
     s_last = seg.shadow_rows[1][s_label, beams]
     has_h = h_label >= 0
@@ -288,7 +291,7 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     band_start, band_stop = seg.band_start_rows[beams] - lo, seg.band_stop_rows[beams] - lo
     in_region = ((local >= np.maximum(sf - d, band_start)[None, :])
                  & (local <= np.minimum(sl + d, band_stop + 1)[None, :] - half_level + 1))
-    floor = np.where(in_region, run, np.inf).min(axis=0)
+    floor = np.minimum.reduce(run, axis=0, where=in_region, initial=np.inf)
     # The seabed's level at the rows taken, in linear power.
     taken = np.asarray(seg.background_rows(first_row, last_row + 1), dtype=np.float32)
     b_lin = seg.power_of(taken).take(rows)

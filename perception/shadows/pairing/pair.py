@@ -124,9 +124,9 @@ def _beam_highlights(
     for t in segmentation.highlights:
         if t.col_stop <= lo or t.col_start > hi:
             continue
-        last = last_all[t.label]
+        last = last_all[t.label, lo : hi + 1].tolist()  # (a list: cheaper to index than the array)
         for k, (c, s_first) in enumerate(zip(columns, first, strict=True)):
-            t_last = int(last[c])
+            t_last = last[c - lo]
             if t_last >= 0:
                 rise = s_first - t_last
                 if 0 <= rise < best_rise[k]:
@@ -247,13 +247,17 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
     pairs: list[Pair] = []
     for s in segmentation.shadows:
         box = slice(s.col_start, s.col_stop)
-        present = np.flatnonzero(last_all[s.label, box] >= 0)
-        if present.size == 0:
+        first_box, last_box = first_all[s.label, box], last_all[s.label, box]
+        shadow_extents = (first_box, last_box, last_box >= 0)
+        # The beams holding the shadow, and its rows there, as lists (a region's box is a few
+        # dozen beams).
+        at = [k for k, row in enumerate(last_box.tolist()) if row >= 0]
+        if not at:
             continue
-        cols = (present + s.col_start).tolist()
-        first = first_all[s.label, cols].tolist()
-        last = last_all[s.label, cols].tolist()
-        shadow_extents = (first_all[s.label, box], last_all[s.label, box], last_all[s.label, box] >= 0)
+        cols = [s.col_start + k for k in at]
+        first_l, last_l = first_box.tolist(), last_box.tolist()
+        first = [first_l[k] for k in at]
+        last = [last_l[k] for k in at]
         runs = split_runs(cols, first, last, jump_rows=jump_rows, min_beams=cfg.min_run_beams)
         blocks: list[tuple[int, int, int]] = []
         for p0, p1 in runs:
