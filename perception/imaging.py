@@ -20,6 +20,7 @@ __all__ = [
     "adaptive_mean_threshold",
     "bounding_box",
     "box_mean",
+    "box_sum_replicate",
     "draw_filled_contour",
     "encode_png",
     "erode",
@@ -81,6 +82,15 @@ def box_mean(image: F32, width: int, height: int, *, replicate: bool = False) ->
         return np.asarray(cv2.boxFilter(image, -1, (width, height), normalize=True,
                                         borderType=cv2.BORDER_REPLICATE))
     return np.asarray(cv2.blur(image, (width, height)))
+
+
+def box_sum_replicate(image: NDArray[np.uint16], width: int, height: int) -> F32:
+    """Sum over a ``width`` x ``height`` box centred on each cell of a uint16 image (odd
+    sizes), the border replicated, as float32 (exact while the sums stay below 2**24: sums
+    of integers). Same shape."""
+    _check(image, "image", (np.uint16,))
+    return np.asarray(cv2.boxFilter(image, cv2.CV_32F, (width, height), normalize=False,
+                                    borderType=cv2.BORDER_REPLICATE))
 
 
 def erode(image: np.ndarray, kernel: U8, *, replicate: bool = False) -> np.ndarray:

@@ -64,7 +64,7 @@ def detect_shadows(
     # edge is least sure and the aperture's own roll-off leaves dark stretches inside it):
     # the cast shadow of a target before the band, itself not insonified, kept without a
     # height (the mosaic leaves it out).
-    half_fan = float(np.max(np.abs(beam_azimuth_rad))) if len(beam_azimuth_rad) else 0.0
+    half_fan = float(np.maximum.reduce(np.abs(beam_azimuth_rad))) if len(beam_azimuth_rad) else 0.0
     return tuple(m for m in found if m.has_highlight or not m.truncated
                  or (m.cut_by == ("band_near",) and m.depth_db >= NEAR_SHADOW_DEPTH_DB
                      and abs(m.azimuth_rad) <= NEAR_SHADOW_FAN_FRACTION * half_fan))

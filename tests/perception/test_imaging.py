@@ -65,3 +65,14 @@ def test_results_are_opencvs(rng: np.random.Generator) -> None:
     assert imaging.optimal_dft_size(97) == 100
     png = imaging.encode_png(np.dstack([grey, grey, grey, grey]))
     assert np.array_equal(cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)[..., 0], grey)
+
+
+def test_box_sum_replicate_is_the_exact_integer_sum(rng: np.random.Generator) -> None:
+    counts = rng.integers(0, 65535 // 5, (23, 17)).astype(np.uint16)
+    for width in (3, 5):
+        half = width // 2
+        padded = np.pad(counts.astype(np.int64), ((0, 0), (half, half)), mode="edge")
+        expected = sum(padded[:, k : k + counts.shape[1]] for k in range(width)).astype(np.float32)
+        assert np.array_equal(imaging.box_sum_replicate(counts, width, 1), expected)
+    with pytest.raises(TypeError, match="image must be uint16"):
+        imaging.box_sum_replicate(counts.astype(np.uint8), 3, 1)

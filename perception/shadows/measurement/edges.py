@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from perception import imaging
 from perception.shadows.measurement.config import MeasureConfig
 from perception.shadows.measurement.stepfit import fit_steps
 from perception.shadows.pairing.pair import Pair
@@ -203,7 +204,7 @@ def _aligned_fits(
     group = (np.arange(n_kinds)[:, None] * n_pairs + owner[None, :]).ravel()
     n_groups = n_kinds * n_pairs
     out = np.full((3, n_groups), np.nan)
-    if not np.any(ok):
+    if not ok.any():
         return out[0].reshape(n_kinds, n_pairs), out[1].reshape(n_kinds, n_pairs), out[2].reshape(n_kinds, n_pairs)
     base = np.floor(np.where(ok, anchor, 0.0)).astype(np.intp)
     rows = base[None, :] + np.arange(-half, half + 1)[:, None]  # (2 half + 1, n_kinds n)
@@ -220,7 +221,7 @@ def _aligned_fits(
     beams = member.sum(axis=1)
     mean = sums / np.maximum(counts, 1.0)
     weights = (counts >= 0.5 * np.maximum(beams, 1.0)[:, None]) & (beams[:, None] > 0)
-    has = np.flatnonzero(weights.sum(axis=1) >= 5)
+    has = (weights.sum(axis=1) >= 5).nonzero()[0]
     if has.size:
         signs = np.repeat(np.array([k[4] for k in kinds], dtype=np.float64), n_pairs)[has]
         fit = fit_steps(mean[has], weights[has].astype(np.float64), edge0=half + 0.5, sign=signs)
@@ -253,16 +254,18 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     s_first = seg.shadow_rows[0][s_label, beams]
     s_last = seg.shadow_rows[1][s_label, beams]
     has_h = h_label >= 0
-    t_first = np.where(has_h, seg.highlight_rows[0][np.maximum(h_label, 0), beams], -1)
-    t_last = np.where(has_h, seg.highlight_rows[1][np.maximum(h_label, 0), beams], -1)
+    h_at = np.maximum(h_label, 0)
+    t_first = np.where(has_h, seg.highlight_rows[0][h_at, beams], -1)
+    t_last = np.where(has_h, seg.highlight_rows[1][h_at, beams], -1)
     has_h &= t_first >= 0
     present = s_last >= 0
     s_first = np.where(present, s_first, 0)
     s_last = np.where(present, s_last, 0)
     reach = level_n + half + k + d
-    start_row = np.where(has_h, np.minimum(t_first, s_first), s_first) - reach - level_n
+    # (Integer rows throughout: sums of constants are taken first, the same rows in fewer calls.)
+    start_row = np.where(has_h, np.minimum(t_first, s_first), s_first) - (reach + level_n)
     lo = np.maximum(start_row, 0)
-    hi = np.minimum(s_last + d + reach, n_rows)
+    hi = np.minimum(s_last + (d + reach), n_rows)
     length = max(int(np.maximum.reduce(hi - lo)), 1)
     # Each beam's rows lo .. lo + length - 1 (the last row repeated past the image's end);
     # the levels read by flat index (one take: cheaper than indexing by rows and columns).
@@ -274,7 +277,7 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     power = seg.power_of(seg.levels.ravel().take(flat))
     m_rows = length
     cum = np.zeros((m_rows + 1, beams.size))
-    np.cumsum(power, axis=0, out=cum[1:])
+    power.cumsum(axis=0, out=cum[1:])
     h = (k - 1) // 2
     # In local rows (of ``power``). The region's rows can hold more than the cast shadow:
     # a target's dim top (seen at grazing incidence, or low-contrast), a few dB under the
@@ -290,34 +293,39 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     # no part of a shadow that ends before it).
     band_start, band_stop = seg.band_start_rows[beams] - lo, seg.band_stop_rows[beams] - lo
     in_region = ((local >= np.maximum(sf - d, band_start)[None, :])
-                 & (local <= np.minimum(sl + d, band_stop + 1)[None, :] - half_level + 1))
+                 & (local <= np.minimum(sl + (d + 1 - half_level), band_stop + (2 - half_level))[None, :]))
     floor = np.minimum.reduce(run, axis=0, where=in_region, initial=np.inf)
     # The seabed's level at the rows taken, in linear power.
     taken = np.asarray(seg.background_rows(first_row, last_row + 1), dtype=np.float32)
     b_lin = seg.power_of(taken).take(rows)
-    deep = (run * run < floor[None, :] * b_lin) & in_region
-    found = deep.any(axis=0)
-    deep_start = np.where(found, deep.argmax(axis=0), sf)
-    deep_end = np.where(found, m_rows - 1 - deep[::-1].argmax(axis=0) + half_level - 1, sl)
+    deep = ((run * run < floor[None, :] * b_lin) & in_region).view(np.uint8)
+    # Each beam's first and last deep row by argmax along contiguous memory (OpenCV turns
+    # the rows into columns, as for the band's edges: far cheaper than along the first axis).
+    by_beam = imaging.transpose(deep).view(bool)
+    first_deep = by_beam.argmax(axis=1)
+    found = (first_deep > 0) | by_beam[:, 0]
+    deep_start = np.where(found, first_deep, sf)
+    deep_end = np.where(found, (m_rows + half_level - 2) - imaging.rotate_clockwise(deep).view(bool).argmax(axis=1),
+                        sl)
     interior_a = deep_start + half_level
-    interior_b = np.maximum(deep_end - half_level + 1, interior_a + 1)
+    interior_b = np.maximum(deep_end + (1 - half_level), interior_a + 1)
     mid_shadow = (deep_start + deep_end) // 2
     short = interior_b - interior_a < 2
     interior_a = np.where(short, mid_shadow, interior_a)
     interior_b = np.where(short, mid_shadow + 1, interior_b)
     # The seabed after the shadow: from a grid step past its end, but inside the band
     # (a shadow ending near the band's far edge leaves less room there).
-    f_a = np.maximum(deep_end + 3, np.minimum(deep_end + d + 1, band_stop + 1 - level_n))
+    f_a = np.maximum(deep_end + 3, np.minimum(deep_end + (d + 1), band_stop + (1 - level_n)))
+    f_b = f_a + level_n
     tf, tl = t_first - lo, t_last - lo
+    echo_a, near_a, near_b = deep_start - (d + level_n), tf - (d + level_n), tf + (d + 1)
     # The levels: shadow, echo before it, seabed after it, seabed before the highlight, highlight.
-    means = _window_means(cum, np.stack([interior_a, deep_start - d - level_n, f_a, tf - d - level_n, tf + d]),
-                          np.stack([interior_b, deep_start - d, f_a + level_n, tf - d,
-                                    np.maximum(tl - d + 1, tf + d + 1)]))
+    means = _window_means(cum, np.array([interior_a, echo_a, f_a, near_a, tf + d]),
+                          np.array([interior_b, deep_start - d, f_b, tf - d, np.maximum(tl + (1 - d), near_b)]))
     shadow_level, echo_level, seabed_level, near_before, near_inside = means
-    seabed_inside = (lo + f_a + level_n) <= n_rows
+    seabed_inside = lo + f_a <= n_rows - level_n
     with np.errstate(invalid="ignore", divide="ignore"):
-        echo_db = 10.0 * np.log10(echo_level / shadow_level)
-        depth_db = 10.0 * np.log10(seabed_level / shadow_level)
+        echo_db, depth_db = 10.0 * np.log10(means[1:3] / shadow_level)  # echo, seabed after: over the shadow
     cut_level_db = cfg.cut_contrast_sigmas * seg.sigma_db
     dark_before = ~(echo_db >= cut_level_db)
     dark_after = ~(depth_db >= cut_level_db) | ~seabed_inside
@@ -325,9 +333,9 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     # The target's near edge: the rise from the seabed before a highlight to the highlight.
     top_end_near = _crossings(
         cum, h,
-        np.stack([0.5 * (echo_level + shadow_level), 0.5 * (seabed_level + shadow_level), 0.5 * (near_before + near_inside)]),
-        np.stack([deep_start - d - level_n, interior_b, tf - d - level_n]),
-        np.stack([interior_a, f_a + level_n, tf + d + 1]),
+        np.array([0.5 * (echo_level + shadow_level), 0.5 * (seabed_level + shadow_level), 0.5 * (near_before + near_inside)]),
+        np.array([echo_a, interior_b, near_a]),
+        np.array([interior_a, f_b, near_b]),
         last=(True, False, False),
     )
     rough_top = top_end_near[0] + 0.5
@@ -347,20 +355,23 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     # The near edge places the target (to a sample is enough): its rough edge.
     near_ok = good & use_near & np.isfinite(rough_near)
     near_rows = np.where(near_ok, rough_near + lo, nan)
-    n_good = np.bincount(owner, weights=good, minlength=n_pairs)
     finite_echo = present & np.isfinite(echo_db)
     finite_depth = present & np.isfinite(depth_db)
+    # The per-pair sums in one bincount (each quantity's pairs in bins of their own, summed in
+    # beam order as one bincount each would).
+    quantities = np.array([good, np.where(finite_echo, echo_db, 0.0), finite_echo, np.where(finite_depth, depth_db, 0.0),
+                           finite_depth, present & dark_before, present & dark_after])
+    bins = owner[None, :] + (np.arange(quantities.shape[0]) * n_pairs)[:, None]
+    n_good, echo_sum, n_echo, depth_sum, n_depth, cut_near, cut_far = np.bincount(
+        bins.ravel(), weights=quantities.ravel(), minlength=quantities.shape[0] * n_pairs).reshape(-1, n_pairs)
     with np.errstate(invalid="ignore", divide="ignore"):
-        echo = (np.bincount(owner, weights=np.where(finite_echo, echo_db, 0.0), minlength=n_pairs)
-                / np.bincount(owner, weights=finite_echo, minlength=n_pairs))
-        depth = (np.bincount(owner, weights=np.where(finite_depth, depth_db, 0.0), minlength=n_pairs)
-                 / np.bincount(owner, weights=finite_depth, minlength=n_pairs))
+        echo = echo_sum / n_echo
+        depth = depth_sum / n_depth
     return FrameEdges(
         beams=beams, owner=owner, good=good, top_rows=top_rows, end_rows=end_rows, near_rows=near_rows,
         top_std_rows=stds[0], end_std_rows=stds[1], blur_rows=blurs[0],
         n_central=counts, n_good=n_good.astype(np.intp),
-        cut_near=np.bincount(owner, weights=present & dark_before, minlength=n_pairs).astype(np.intp),
-        cut_far=np.bincount(owner, weights=present & dark_after, minlength=n_pairs).astype(np.intp),
+        cut_near=cut_near.astype(np.intp), cut_far=cut_far.astype(np.intp),
         echo_db=echo, depth_db=depth,
     )
 

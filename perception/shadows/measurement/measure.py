@@ -268,7 +268,7 @@ def measure_pairs(
     # Every beam's ranges at once (the three edges in one interpolation; the near edge's
     # missing rows read at row 0, then NaN); each pair's beams are a run of the good beams
     # (in pair order).
-    good = np.flatnonzero(edges.good)
+    good = edges.good.nonzero()[0]
     n_beams = good.size
     owner = edges.owner[good]
     near_rows = edges.near_rows[good]

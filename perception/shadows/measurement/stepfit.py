@@ -205,7 +205,7 @@ def _vertex_2d(cube: FloatArray, rows: NDArray[np.intp], j: NDArray[np.intp],
     g = 0.5 * (after - before)  # gj, gk
     hd = after - 2.0 * c[:, 4:5] + before  # hjj, hkk
     hjk = 0.25 * (c[:, 8] - c[:, 6] - c[:, 2] + c[:, 0])
-    jk = np.stack((j, k), axis=1)
+    jk = np.array((j, k)).T
     inner = (jk > 0) & (jk < np.array((n_j - 1, n_k - 1)))
     both_inner = inner[:, 0] & inner[:, 1]
     hjk = np.where(both_inner, hjk, 0.0)

@@ -106,32 +106,22 @@ def block_levels(image: Levels, row_step: int, *, beams: int) -> NDArray[np.floa
     blocks = image[: n_grid * d].reshape(n_grid, d, n_cols)
     if image.dtype == np.uint8 and d * beams <= 257:
         # Row by row into uint16 (cheaper than a reduction along the middle axis), then the
-        # beams' sums (edges replicated) in integers too: exact, one conversion to float.
+        # beams' sums (edges replicated) by OpenCV's box filter into float32: sums of
+        # integers below 2**16, exact, then scaled.
         total = blocks[:, 0].astype(np.uint16)
         for i in range(1, d):
             total += blocks[:, i]
         if beams > 1 and n_cols > 1:
-            total = _beam_sums(total, beams)
+            out = imaging.box_sum_replicate(total, beams, 1)
             d *= beams
-        out = total.astype(np.float32)
+        else:
+            out = total.astype(np.float32)
         out *= np.float32(1.0 / d)
         return out
     out = np.add.reduce(blocks, axis=1, dtype=np.float32)
     out *= np.float32(1.0 / d)
     if beams > 1:
         out = imaging.box_mean(out, beams, 1, replicate=True)
-    return out
-
-
-def _beam_sums(total: NDArray[np.uint16], beams: int) -> NDArray[np.uint16]:
-    """Sums over ``beams`` (odd) neighbouring columns, edges replicated, of a uint16 array (new array)."""
-    half = beams // 2
-    padded = np.concatenate([np.repeat(total[:, :1], half, axis=1), total, np.repeat(total[:, -1:], half, axis=1)],
-                            axis=1)
-    n_cols = total.shape[1]
-    out = padded[:, :n_cols].copy()
-    for k in range(1, beams):
-        out += padded[:, k : k + n_cols]
     return out
 
 
@@ -149,7 +139,7 @@ def level_spread(grid: NDArray[np.float32], background: NDArray[np.float32], row
     3 of those of it. At most :data:`SPREAD_SAMPLE` values are read, strided over rows and
     beams. Returns 0 when no row is given.
     """
-    picked = np.flatnonzero(rows)
+    picked = rows.nonzero()[0]
     if picked.size == 0:
         return 0.0
     n_cols = grid.shape[1]
@@ -185,6 +175,17 @@ def _block_count(grid: NDArray[np.float32], block_rows: int) -> tuple[int, int, 
     return n_rows, n_cols, block, n_rows // block
 
 
+@functools.lru_cache(maxsize=16)
+def _block_axes(n_rows: int, n_blocks: int, block: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The rows 0 .. n_rows - 1 and the centres of ``n_blocks`` blocks of ``block`` rows,
+    read-only: where per-block values are interpolated to, and from (per geometry, not per frame)."""
+    rows = np.arange(n_rows, dtype=np.float64)
+    centres = (np.arange(n_blocks) + 0.5) * block - 0.5
+    rows.flags.writeable = False
+    centres.flags.writeable = False
+    return rows, centres
+
+
 def row_spread(grid: NDArray[np.float32], background: NDArray[np.float32], *, block_rows: int) -> NDArray[np.float32]:
     """Each grid row's spread of levels about its seabed level, from blocks of rows.
 
@@ -213,8 +214,8 @@ def row_spread(grid: NDArray[np.float32], background: NDArray[np.float32], *, bl
         before = np.concatenate([spread[-1:], spread[:-1]])
         after = np.concatenate([spread[1:], spread[:1]])
         spread = np.maximum(np.minimum(spread, np.maximum(before, after)), 0)
-    centres = (np.arange(n_blocks) + 0.5) * block - 0.5
-    return np.interp(np.arange(n_rows), centres, spread).astype(np.float32)
+    rows, centres = _block_axes(n_rows, n_blocks, block)
+    return np.interp(rows, centres, spread).astype(np.float32)
 
 
 def percentile90(values: NDArray[np.float32]) -> float:
@@ -278,8 +279,8 @@ def row_background(
         level = np.minimum(level, running_median(level, size=size))
     if block == 1:
         return np.asarray(level, dtype=np.float32)
-    centres = (np.arange(n_blocks) + 0.5) * block - 0.5
-    return np.interp(np.arange(n_rows), centres, level).astype(np.float32)
+    rows, centres = _block_axes(n_rows, n_blocks, block)
+    return np.interp(rows, centres, level).astype(np.float32)
 
 
 @functools.lru_cache(maxsize=8)

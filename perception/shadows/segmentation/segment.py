@@ -298,11 +298,11 @@ def hysteresis_along_beams(strong: NDArray[np.bool_], weak: NDArray[np.bool_]) -
     masks there, are worked on.
     """
     out = np.zeros(strong.shape, dtype=bool)
-    cols = np.flatnonzero(np.logical_or.reduce(strong, axis=0))
+    cols = np.logical_or.reduce(strong, axis=0).nonzero()[0]
     if cols.size == 0:
         return out
     mask = (weak | strong)[:, cols]  # (one gather of the columns: cheaper than two)
-    occupied = np.flatnonzero(np.logical_or.reduce(mask, axis=1))
+    occupied = np.logical_or.reduce(mask, axis=1).nonzero()[0]
     r0, r1 = int(occupied[0]), int(occupied[-1]) + 1
     mask = mask[r0:r1]
     n_rows, n_cols = mask.shape
