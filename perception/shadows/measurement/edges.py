@@ -298,7 +298,10 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     # The seabed's level at the rows taken, in linear power.
     taken = np.asarray(seg.background_rows(first_row, last_row + 1), dtype=np.float32)
     b_lin = seg.power_of(taken).take(rows)
-    deep = ((run * run < floor[None, :] * b_lin) & in_region).view(np.uint8)
+    # (In place: neither is read again.)
+    deep = np.less(np.multiply(run, run, out=run), np.multiply(floor[None, :], b_lin, out=b_lin))
+    deep &= in_region
+    deep = deep.view(np.uint8)
     # Each beam's first and last deep row by argmax along contiguous memory (OpenCV turns
     # the rows into columns, as for the band's edges: far cheaper than along the first axis).
     by_beam = imaging.transpose(deep).view(bool)

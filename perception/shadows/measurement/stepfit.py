@@ -95,11 +95,13 @@ class StepFit:
 
 @dataclass(frozen=True)
 class _Bank:
-    """Templates ``Phi((centre + offset - x) / blur)``, x = 0 .. m - 1: ``t`` (m, K) and
+    """Templates ``Phi((centre + offset - x) / blur)``, x = 0 .. m - 1: ``t`` (m, K), its
+    transpose ``t_rows`` (K, m: a template per row, for picking templates) and
     ``t2 = t * t``, side by side in ``t_t2`` (m, 2 K: one product gives both sums);
     ``offsets`` and ``blurs`` (K,) each; ``n_blurs`` blurs per offset (offsets vary slowest)."""
 
     t: FloatArray
+    t_rows: FloatArray
     t_t2: FloatArray
     offsets: FloatArray
     blurs: FloatArray
@@ -116,10 +118,11 @@ def _bank(m: int, centre: float, reach: float, step: float, n_blurs: int, widest
     x = np.arange(m, dtype=np.float64)
     t = ndtr((centre + off[None, :] - x[:, None]) / blur[None, :])
     t_t2 = np.ascontiguousarray(np.hstack([t, t * t]))
-    for array in (t, t_t2, off, blur):
+    t_rows = np.ascontiguousarray(t.T)
+    for array in (t, t_rows, t_t2, off, blur):
         array.flags.writeable = False
     ratio = float(blurs[1] / blurs[0]) if n_blurs > 1 else 1.0
-    return _Bank(t=t, t_t2=t_t2, offsets=off, blurs=blur, n_blurs=n_blurs, blur_ratio=ratio)
+    return _Bank(t=t, t_rows=t_rows, t_t2=t_t2, offsets=off, blurs=blur, n_blurs=n_blurs, blur_ratio=ratio)
 
 
 @dataclass(frozen=True)
@@ -144,13 +147,18 @@ def _search(y: FloatArray, w: FloatArray, bank: _Bank, sign: FloatArray) -> _Sea
     np.multiply(w, y, out=w_wy[n:])
     sw, sy = np.add.reduce(w_wy, axis=1).reshape(2, n, 1)
     sums = w_wy @ bank.t_t2  # rows: w then wy; columns: t then t2
+    # In place over the product's blocks (each read once) and one scratch array.
     sp = sums[:n, :k]
-    num = sums[n:, :k] * sw
-    num -= sp * sy  # sw * spy - sp * sy: b times det
-    det = sums[:n, k:] * sw
-    det -= sp * sp  # sw * spp - sp^2 >= 0 (0 for a template flat over the window)
+    num = sums[n:, :k]
+    num *= sw
+    scratch = np.multiply(sp, sy)
+    num -= scratch  # sw * spy - sp * sy: b times det
+    det = sums[:n, k:]
+    det *= sw
+    det -= np.multiply(sp, sp, out=scratch)  # sw * spp - sp^2 >= 0 (0 for a template flat over the window)
     det += 1e-12 * sw * sw
-    score = num * np.abs(num)
+    score = np.abs(num, out=scratch)
+    score *= num
     score *= sign[:, None]
     score /= det  # the explained sum of squares times sw, signed
     rows = np.arange(n)
@@ -253,10 +261,12 @@ def fit_steps(
     n, m = y.shape
     sign = np.asarray(sign, dtype=np.float64) * np.ones(n)
     inside = w > 0
-    first = inside.argmax(axis=1)
-    last = m - 1 - inside[:, ::-1].argmax(axis=1)
+    # Each window's first and last sample, as floats (the edge is clamped to them).
+    first = inside.argmax(axis=1).astype(np.float64)
+    last = (m - 1 - inside[:, ::-1].argmax(axis=1)).astype(np.float64)
     # Each profile on its own scale (the closed forms then stay well conditioned).
-    scale = np.add.reduce(w * y, axis=1) / np.add.reduce(w, axis=1) + 1e-300
+    w_sum = np.add.reduce(w, axis=1)
+    scale = np.add.reduce(w * y, axis=1) / w_sum + 1e-300
     y = y / scale[:, None]
     widest = min(MAX_BLUR_SAMPLES, max(m - 1, 1) / 2.0)
     rows = np.arange(n)
@@ -270,14 +280,14 @@ def fit_steps(
     valid = (cols >= 0) & (cols < m)
     cols = np.minimum(np.maximum(cols, 0), m - 1)
     cols += (rows * m)[:, None]  # flat indices (one take each)
-    wt = _gamma_weights(w, found.a, found.b, coarse.t[:, found.best].T)
+    wt = _gamma_weights(w, found.a, found.b, coarse.t_rows[found.best])
     y_s = np.where(valid, y.take(cols), 0.0)
     wt_s = np.where(valid, wt.take(cols), 0.0)
     fine = _bank(m, float(edge0), FINE_REACH_SAMPLES, FINE_STEP_SAMPLES, FINE_BLURS, widest)
     found = _search(y_s, wt_s, fine, sign)
     w_s = np.where(valid, w.take(cols), 0.0)
     for _ in range(FINE_REWEIGHTS):
-        wt_s = _gamma_weights(w_s, found.a, found.b, fine.t[:, found.best].T)
+        wt_s = _gamma_weights(w_s, found.a, found.b, fine.t_rows[found.best])
         found = _search(y_s, wt_s, fine, sign)
     n_blurs = fine.n_blurs
     n_off = fine.offsets.size // n_blurs
@@ -331,7 +341,7 @@ def fit_steps(
     blur = np.exp(log_s)
     # The edge's 1-sigma from the weighted residuals and the Jacobian of all four parameters
     # (levels, edge, blur): the levels' errors move the fitted edge too.
-    var_res = np.add.reduce(wt * r * r, axis=1) / np.maximum(np.add.reduce(w, axis=1) - 4.0, 1.0)
+    var_res = np.add.reduce(wt * r * r, axis=1) / np.maximum(w_sum - 4.0, 1.0)
     jac[:, 1] = phi
     fisher = np.einsum("nim,njm->nij", jac * wt[:, None, :], jac)
     fisher += _EYE4 * (1e-12 * fisher.trace(axis1=1, axis2=2)[:, None, None] + 1e-300)

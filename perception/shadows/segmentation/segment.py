@@ -212,7 +212,10 @@ def segment(
     # ranges of its echo, would cut the shadow in two.
     weak = np.zeros((n_grid, n_cols), dtype=bool)
     shadow_in_edges(grid, background - np.float32(cfg.shadow_weak_sigmas) * spread, inner, out=weak)
-    both[:, :n_cols] = hysteresis_along_beams(both[:, :n_cols].view(bool), weak).view(np.uint8)
+    grown = _hysteresis_block(both[:, :n_cols].view(bool), weak)
+    if grown is not None:  # (elsewhere the strong mask is the result: no strong row there)
+        r0, r1, cols, block = grown
+        both[r0:r1, cols] = block
     # Highlights inside the band: its rows are one run (longest_run's), the others stay 0.
     band_at = band.nonzero()[0]
     if band_at.size:
@@ -295,12 +298,26 @@ def hysteresis_along_beams(strong: NDArray[np.bool_], weak: NDArray[np.bool_]) -
     is added to ``weak``), shape of the masks.
 
     Only the beams with a ``strong`` row, and the rows from the first to the last of the
-    masks there, are worked on.
+    masks there, are worked on (:func:`_hysteresis_block`).
     """
     out = np.zeros(strong.shape, dtype=bool)
+    grown = _hysteresis_block(strong, weak)
+    if grown is not None:
+        r0, r1, cols, block = grown
+        out[r0:r1, cols] = block
+    return out
+
+
+def _hysteresis_block(
+    strong: NDArray[np.bool_], weak: NDArray[np.bool_]
+) -> tuple[int, int, NDArray[np.intp], NDArray[np.bool_]] | None:
+    """:func:`hysteresis_along_beams` where it can differ from ``strong``: rows ``r0:r1`` of
+    the beams ``cols`` (those with a ``strong`` row) and the result there; None when no
+    beam has one (outside the block ``strong`` is all False, and so is the result).
+    Segmentation writes the block into its mask in place."""
     cols = np.logical_or.reduce(strong, axis=0).nonzero()[0]
     if cols.size == 0:
-        return out
+        return None
     mask = (weak | strong)[:, cols]  # (one gather of the columns: cheaper than two)
     occupied = np.logical_or.reduce(mask, axis=1).nonzero()[0]
     r0, r1 = int(occupied[0]), int(occupied[-1]) + 1
@@ -316,8 +333,7 @@ def hysteresis_along_beams(strong: NDArray[np.bool_], weak: NDArray[np.bool_]) -
     has = np.zeros(n_cols * (n_rows + 1), dtype=bool)
     has[run_id[strong[r0:r1, cols]]] = True
     has[::n_rows + 1] = False  # id 0 of each column: before any run
-    out[r0:r1, cols] = np.logical_and(has.take(run_id), mask)
-    return out
+    return r0, r1, cols, np.logical_and(has.take(run_id), mask)
 
 
 def _core_pixels(
