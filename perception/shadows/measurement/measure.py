@@ -111,7 +111,7 @@ class ShadowMeasurement:
     A frame builds one per target, so the class writes its own ``__init__`` (as
     :class:`perception.shadows.segmentation.grid.Region` does): it stores the fields in the
     instance's ``__dict__`` at once instead of one ``object.__setattr__`` at a time, at
-    about a third of the cost (same object: equal, same hash, repr and pickle). Its
+    about a quarter of the cost (same object: equal, same hash, repr and pickle). Its
     parameters are the fields, in order, with their defaults (checked when the module loads).
     """
 

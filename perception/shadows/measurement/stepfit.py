@@ -62,6 +62,9 @@ DAMPING = 0.01
 MAX_EDGE_STEP_SAMPLES = 0.5
 MAX_LOG_BLUR_STEP = 0.35
 _SQRT_2PI = math.sqrt(2.0 * math.pi)
+#: The Gauss-Newton steps' bounds, (x0, log s) as a column.
+_MAX_STEPS = np.array([[MAX_EDGE_STEP_SAMPLES], [MAX_LOG_BLUR_STEP]])
+_MAX_STEPS.flags.writeable = False
 #: The 4 x 4 identity, (1, 4, 4), read-only (the Fisher matrices' regularisation).
 _EYE4 = np.eye(4)[None]
 _EYE4.flags.writeable = False
@@ -174,13 +177,16 @@ def _levels(phi: FloatArray, y: FloatArray, w: FloatArray) -> tuple[FloatArray, 
     terms = np.empty((5, *w.shape))
     terms[0] = w
     wp = np.multiply(w, phi, out=terms[1])
-    np.multiply(wp, phi, out=terms[2])
-    np.multiply(w, y, out=terms[3])
+    np.multiply(w, y, out=terms[2])
+    np.multiply(wp, phi, out=terms[3])
     np.multiply(wp, y, out=terms[4])
-    sw, sp, spp, sy, spy = np.add.reduce(terms, axis=2)
-    det = sw * spp - sp * sp
-    det = np.where(np.abs(det) > 1e-12 * np.maximum(sw * spp, 1e-300), det, np.nan)
-    b = (sw * spy - sp * sy) / det
+    sums = np.add.reduce(terms, axis=2)  # sw, sp, sy, spp, spy
+    sw, sp, sy = sums[0], sums[1], sums[2]
+    # sw spp - sp sp (the determinant) and sw spy - sp sy (b times it), side by side.
+    sw_times = sw * sums[3:5]
+    det, b_det = sw_times - sp * sums[1:3]
+    det = np.where(np.abs(det) > 1e-12 * np.maximum(sw_times[0], 1e-300), det, np.nan)
+    b = b_det / det
     a = (sy - b * sp) / np.maximum(sw, 1e-300)
     return a, b
 
@@ -305,6 +311,10 @@ def fit_steps(
     log_s = np.log(blur)
     phi = ndtr((x0[:, None] - x) / blur[:, None])
     model = a[:, None] + b[:, None] * phi
+    # (x0, log s) side by side for the Gauss-Newton steps, and their bounds.
+    params = np.array([x0, log_s])
+    lowest = np.array([first, np.full(n, math.log(MIN_BLUR_SAMPLES))])
+    highest = np.array([last, np.full(n, math.log(widest))])
     # The last pass's Jacobian of all four parameters (levels, edge, blur), for the 1-sigma.
     jac = np.empty((n, 4, m))
     jac[:, 0] = 1.0
@@ -326,18 +336,22 @@ def fit_steps(
         wj0, wj1 = wt * j0, wt * j1
         np.multiply(wj0, r, out=terms[0])
         np.multiply(wj1, r, out=terms[1])
-        np.multiply(wj0, j0, out=terms[2])
-        np.multiply(wj0, j1, out=terms[3])
-        np.multiply(wj1, j1, out=terms[4])
-        g0, g1, h00, h01, h11 = np.add.reduce(terms, axis=2)
-        h00 *= 1.0 + DAMPING
-        h11 *= 1.0 + DAMPING
-        det = h00 * h11 - h01 * h01
+        np.multiply(wj1, j1, out=terms[2])
+        np.multiply(wj0, j0, out=terms[3])
+        np.multiply(wj0, j1, out=terms[4])
+        sums = np.add.reduce(terms, axis=2)  # g0, g1, h11, h00, h01
+        g, h_diag, h01 = sums[0:2], sums[2:4], sums[4]
+        h_diag *= 1.0 + DAMPING  # h11, h00
+        det = h_diag[1] * h_diag[0] - h01 * h01
         det = np.where(det > 0, det, np.inf)
-        step_x = np.minimum(np.maximum((h11 * g0 - h01 * g1) / det, -MAX_EDGE_STEP_SAMPLES), MAX_EDGE_STEP_SAMPLES)
-        x0 = np.minimum(np.maximum(x0 + step_x, first), last)
-        step_s = np.minimum(np.maximum((h00 * g1 - h01 * g0) / det, -MAX_LOG_BLUR_STEP), MAX_LOG_BLUR_STEP)
-        log_s = np.minimum(np.maximum(log_s + step_s, math.log(MIN_BLUR_SAMPLES)), math.log(widest))
+        # The steps of (x0, log s) side by side: (h11 g0 - h01 g1, h00 g1 - h01 g0) / det, each
+        # bounded, then the parameters bounded.
+        step = h_diag * g
+        step -= h01 * g[::-1]
+        step /= det
+        step = np.minimum(np.maximum(step, -_MAX_STEPS), _MAX_STEPS)
+        params = np.minimum(np.maximum(params + step, lowest), highest)
+        x0, log_s = params
     blur = np.exp(log_s)
     # The edge's 1-sigma from the weighted residuals and the Jacobian of all four parameters
     # (levels, edge, blur): the levels' errors move the fitted edge too.

@@ -145,8 +145,13 @@ def level_spread(grid: NDArray[np.float32], background: NDArray[np.float32], row
     n_cols = grid.shape[1]
     step_rows = max(1, int(math.ceil(math.sqrt(picked.size * n_cols / SPREAD_SAMPLE))))
     step_cols = max(1, min(n_cols, step_rows))
-    picked = picked[::step_rows]
-    flat = (grid[picked, ::step_cols] - background[picked, None]).ravel()
+    first, last = int(picked[0]), int(picked[-1])
+    if last - first + 1 == picked.size:  # one run of rows (the usual case): slices, no gather
+        at = slice(first, last + 1, step_rows)
+        flat = (grid[at, ::step_cols] - background[at, None]).ravel()
+    else:
+        picked = picked[::step_rows]
+        flat = (grid[picked, ::step_cols] - background[picked, None]).ravel()
     n = flat.size
     if n < 8:
         return float(np.std(flat))
