@@ -250,7 +250,7 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     # one array from lists (a frame has a few dozen such beams).
     per_beam = [(c, n, p.shadow.label, -1 if p.highlight is None else p.highlight.label)
                 for n, (p, central) in enumerate(zip(pairs, centrals, strict=True)) for c in central]
-    beams, owner, s_label, h_label = np.array(list(zip(*per_beam)), dtype=np.intp)
+    beams, owner, s_label, h_label = np.array(list(zip(*per_beam, strict=True)), dtype=np.intp)
     s_first = seg.shadow_rows[0][s_label, beams]
     s_last = seg.shadow_rows[1][s_label, beams]
     has_h = h_label >= 0
@@ -336,7 +336,8 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     # The target's near edge: the rise from the seabed before a highlight to the highlight.
     top_end_near = _crossings(
         cum, h,
-        np.array([0.5 * (echo_level + shadow_level), 0.5 * (seabed_level + shadow_level), 0.5 * (near_before + near_inside)]),
+        np.array([0.5 * (echo_level + shadow_level), 0.5 * (seabed_level + shadow_level),
+                  0.5 * (near_before + near_inside)]),
         np.array([echo_a, interior_b, near_a]),
         np.array([interior_a, f_b, near_b]),
         last=(True, False, False),
@@ -362,8 +363,9 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     finite_depth = present & np.isfinite(depth_db)
     # The per-pair sums in one bincount (each quantity's pairs in bins of their own, summed in
     # beam order as one bincount each would).
-    quantities = np.array([good, np.where(finite_echo, echo_db, 0.0), finite_echo, np.where(finite_depth, depth_db, 0.0),
-                           finite_depth, present & dark_before, present & dark_after])
+    quantities = np.array([good, np.where(finite_echo, echo_db, 0.0), finite_echo,
+                           np.where(finite_depth, depth_db, 0.0), finite_depth, present & dark_before,
+                           present & dark_after])
     bins = owner[None, :] + (np.arange(quantities.shape[0]) * n_pairs)[:, None]
     n_good, echo_sum, n_echo, depth_sum, n_depth, cut_near, cut_far = np.bincount(
         bins.ravel(), weights=quantities.ravel(), minlength=quantities.shape[0] * n_pairs).reshape(-1, n_pairs)

@@ -158,7 +158,7 @@ class ShadowMeasurement:
 
 def _same_parameters_as_fields(cls: type) -> bool:
     """Whether ``cls.__init__`` takes exactly the dataclass's fields, in order, with their defaults."""
-    params = list(inspect.signature(cls.__init__).parameters.values())[1:]
+    params = list(inspect.signature(cls).parameters.values())
     return [(p.name, repr(p.default)) for p in params] == [
         (f.name, repr(inspect.Parameter.empty if f.default is MISSING else f.default)) for f in fields(cls)
     ]

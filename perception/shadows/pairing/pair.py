@@ -140,6 +140,10 @@ def _blocks(labels: list[int], min_beams: int) -> list[tuple[int, int, int]]:
     Beams without a highlight (-1) join the block before them (the first block takes
     the ones before it); blocks of fewer than ``min_beams`` beams join a neighbour.
     """
+    distinct = set(labels)
+    distinct.discard(-1)
+    if len(distinct) <= 1:  # one highlight or none (the usual case): one block
+        return [(0, len(labels), distinct.pop() if distinct else -1)]
     filled = list(labels)
     known = next((v for v in filled if v >= 0), -1)
     for k, v in enumerate(filled):
@@ -214,12 +218,6 @@ def _similar_lengths(first: list[int], last: list[int], a: int, k: int, b: int,
     return max(x, y) <= ratio * max(min(x, y), 1)
 
 
-def _overlap(segmentation: Segmentation, label: int, n_common: int) -> float:
-    """Algorithm 1's ``|T ∩ S| / |T|`` over beams for highlight ``label``."""
-    n_t = int(np.count_nonzero(segmentation.highlight_rows[1][label] >= 0))
-    return n_common / max(n_t, 1)
-
-
 def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = None) -> list[Pair]:
     """Targets from the shadows of one frame, each with the highlight before it (module docstring).
 
@@ -244,6 +242,8 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
     band = BandEdges(segmentation)
     first_all, last_all = segmentation.shadow_rows
     highlights = {t.label: t for t in segmentation.highlights}
+    # Algorithm 1's |T| (beams holding the highlight), of every label at once.
+    highlight_beams = np.count_nonzero(segmentation.highlight_rows[1] >= 0, axis=1).tolist()
     pairs: list[Pair] = []
     for s in segmentation.shadows:
         box = slice(s.col_start, s.col_stop)
@@ -286,7 +286,7 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
             t = highlights.get(label)
             if t is None and not cfg.shadow_only:
                 continue
-            ratio = 0.0 if t is None else _overlap(segmentation, label, p1 - p0)
+            ratio = 0.0 if t is None else (p1 - p0) / max(highlight_beams[label], 1)  # |T ∩ S| / |T|
             flags = band_flags(columns, first[p0:p1], last[p0:p1], band)
             if touches_edge(s, n_rows, n_cols) or (t is not None and touches_edge(t, n_rows, n_cols)):
                 flags = (

@@ -145,9 +145,9 @@ def level_spread(grid: NDArray[np.float32], background: NDArray[np.float32], row
     n_cols = grid.shape[1]
     step_rows = max(1, int(math.ceil(math.sqrt(picked.size * n_cols / SPREAD_SAMPLE))))
     step_cols = max(1, min(n_cols, step_rows))
-    first, last = int(picked[0]), int(picked[-1])
-    if last - first + 1 == picked.size:  # one run of rows (the usual case): slices, no gather
-        at = slice(first, last + 1, step_rows)
+    row_a, row_b = int(picked[0]), int(picked[-1])
+    if row_b - row_a + 1 == picked.size:  # one run of rows (the usual case): slices, no gather
+        at = slice(row_a, row_b + 1, step_rows)
         flat = (grid[at, ::step_cols] - background[at, None]).ravel()
     else:
         picked = picked[::step_rows]
@@ -185,7 +185,10 @@ def _block_axes(n_rows: int, n_blocks: int, block: int) -> tuple[NDArray[np.floa
     """The rows 0 .. n_rows - 1 and the centres of ``n_blocks`` blocks of ``block`` rows,
     read-only: where per-block values are interpolated to, and from (per geometry, not per frame)."""
     rows = np.arange(n_rows, dtype=np.float64)
-    centres = (np.arange(n_blocks) + 0.5) * block - 0.5
+    centres = np.arange(n_blocks, dtype=np.float64)  # (i + 0.5) block - 0.5
+    centres += 0.5
+    centres *= block
+    centres -= 0.5
     rows.flags.writeable = False
     centres.flags.writeable = False
     return rows, centres

@@ -164,9 +164,10 @@ def segment(
     non_negative = levels.dtype == np.uint8
     background = row_background(grid, block_rows=block, median_blocks=median_blocks, non_negative=non_negative)
     # The noise floor: the darkest rows, blanked ones (all at the floor of the levels) aside.
-    ordered = np.sort(background)
+    ordered = background.copy()
+    ordered.sort()
     lowest = float(ordered[0])
-    unblanked = ordered[int(np.searchsorted(ordered, lowest + 1e-3, side="right")):]
+    unblanked = ordered[int(ordered.searchsorted(lowest + 1e-3, side="right")):]
     noise = sorted_percentile(unblanked if unblanked.size >= 4 else ordered, NOISE_PERCENTILE)
     top = sorted_percentile(ordered, 95.0)
     # The spread, first over the rows half-way or more from the noise floor to the brightest
@@ -192,7 +193,7 @@ def segment(
     # (one-look noise where the seabed has many looks; a target's shadow and highlight in a
     # row widen the row's own spread by less than that).
     own = row_spread(grid, background, block_rows=block)
-    spread = np.where(own > np.float32(WIDE_SPREAD * sigma), own, np.float32(sigma)).astype(np.float32)
+    spread = np.where(own > np.float32(WIDE_SPREAD * sigma), own, np.float32(sigma)).astype(np.float32, copy=False)
     tolerance = max(1.0, BAND_EDGE_TOLERANCE_M / cell_m)
     edges = band_edges(grid, band, level=lit_level, stride=1, tolerance_rows=tolerance)
     # Near the band's edges a block straddles both sides: shadows are tested against the
@@ -210,12 +211,12 @@ def segment(
     # Along each beam a shadow runs on through pixels only weakly darker than the seabed
     # (hysteresis): a bright target's side-lobe streak across another's shadow, at the
     # ranges of its echo, would cut the shadow in two.
-    weak = np.zeros((n_grid, n_cols), dtype=bool)
+    weak = np.empty((n_grid, n_cols), dtype=bool)  # (every row written)
     shadow_in_edges(grid, background - np.float32(cfg.shadow_weak_sigmas) * spread, inner, out=weak)
     grown = _hysteresis_block(both[:, :n_cols].view(bool), weak)
     if grown is not None:  # (elsewhere the strong mask is the result: no strong row there)
-        r0, r1, cols, block = grown
-        both[r0:r1, cols] = block
+        r0, r1, cols, grown_rows = grown
+        both[r0:r1, cols] = grown_rows
     # Highlights inside the band: its rows are one run (longest_run's), the others stay 0.
     band_at = band.nonzero()[0]
     if band_at.size:
