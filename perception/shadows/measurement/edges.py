@@ -271,8 +271,13 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     # the levels read by flat index (one take: cheaper than indexing by rows and columns).
     first_row, last_row = int(np.minimum.reduce(lo)), min(int(np.maximum.reduce(lo)) + length - 1, n_rows - 1)
     rows = _column_rows(lo - first_row, length, last_row - first_row)  # from first_row
+    # The seabed's level at those rows, in linear power (read first: the rows then become the
+    # flat indices, in place).
+    taken = np.asarray(seg.background_rows(first_row, last_row + 1), dtype=np.float32)
+    b_lin = seg.power_of(taken).take(rows)
     n_cols = seg.levels.shape[1]
-    flat = rows * n_cols
+    flat = rows
+    flat *= n_cols
     flat += first_row * n_cols + beams
     power = seg.power_of(seg.levels.ravel().take(flat))
     m_rows = length
@@ -295,9 +300,6 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     in_region = ((local >= np.maximum(sf - d, band_start)[None, :])
                  & (local <= np.minimum(sl + (d + 1 - half_level), band_stop + (2 - half_level))[None, :]))
     floor = np.minimum.reduce(run, axis=0, where=in_region, initial=np.inf)
-    # The seabed's level at the rows taken, in linear power.
-    taken = np.asarray(seg.background_rows(first_row, last_row + 1), dtype=np.float32)
-    b_lin = seg.power_of(taken).take(rows)
     # (In place: neither is read again.)
     deep = np.less(np.multiply(run, run, out=run), np.multiply(floor[None, :], b_lin, out=b_lin))
     deep &= in_region
