@@ -65,6 +65,9 @@ _SQRT_2PI = math.sqrt(2.0 * math.pi)
 #: The Gauss-Newton steps' bounds, (x0, log s) as a column.
 _MAX_STEPS = np.array([[MAX_EDGE_STEP_SAMPLES], [MAX_LOG_BLUR_STEP]])
 _MAX_STEPS.flags.writeable = False
+#: One step either way and none, as a column (the 3 x 3 scores about a bank's best).
+_STEPS3 = np.arange(-1, 2)[:, None]
+_STEPS3.flags.writeable = False
 #: The 4 x 4 identity, (1, 4, 4), read-only (the Fisher matrices' regularisation).
 _EYE4 = np.eye(4)[None]
 _EYE4.flags.writeable = False
@@ -208,32 +211,35 @@ def _vertex_2d(cube: FloatArray, rows: NDArray[np.intp], j: NDArray[np.intp],
     direction at a time: with a blur between the bank's, the weighted scores' ridge runs
     oblique, and the best edge at the nearest blur is off the vertex."""
     n_j, n_k = cube.shape[1], cube.shape[2]
-    step = np.arange(-1, 2)
-    # The 3 x 3 scores about each best at once (indices clamped at the bank's edges).
-    jj = np.minimum(np.maximum(j[:, None] + step[None, :], 0), n_j - 1)  # np.clip: several times slower
-    kk = np.minimum(np.maximum(k[:, None] + step[None, :], 0), n_k - 1)
-    c = cube[rows[:, None, None], jj[:, :, None], kk[:, None, :]].reshape(-1, 9)
-    # The two directions side by side, columns (edge, blur): the same operations on each
+    # The 3 x 3 scores about each best at once (indices clamped at the bank's edges), as
+    # rows of profiles: c[3 a + b] is each profile's score at (j - 1 + a, k - 1 + b). (Flat
+    # indices and contiguous rows: cheaper calls than fancy indexing and strided columns.)
+    jj = np.minimum(np.maximum(j[None, :] + _STEPS3, 0), n_j - 1)  # np.clip: several times slower
+    kk = np.minimum(np.maximum(k[None, :] + _STEPS3, 0), n_k - 1)
+    flat = jj[:, None, :] * n_k + kk[None, :, :]
+    flat += rows * (n_j * n_k)
+    c = cube.take(flat).reshape(9, -1)
+    # The two directions side by side, rows (edge, blur): the same operations on each
     # element as written out one direction at a time, half the calls.
-    after, before = c[:, (7, 5)], c[:, (1, 3)]  # (j + 1, k), (j, k + 1); (j - 1, k), (j, k - 1)
+    after, before = c.take((7, 5), axis=0), c.take((1, 3), axis=0)  # (j + 1, k), (j, k + 1); (j - 1, k), (j, k - 1)
     g = 0.5 * (after - before)  # gj, gk
-    hd = after - 2.0 * c[:, 4:5] + before  # hjj, hkk
-    hjk = 0.25 * (c[:, 8] - c[:, 6] - c[:, 2] + c[:, 0])
-    jk = np.array((j, k)).T
-    inner = (jk > 0) & (jk < np.array((n_j - 1, n_k - 1)))
-    both_inner = inner[:, 0] & inner[:, 1]
+    hd = after - 2.0 * c[4] + before  # hjj, hkk
+    hjk = 0.25 * (c[8] - c[6] - c[2] + c[0])
+    jk = np.array((j, k))
+    inner = (jk > 0) & (jk < np.array(((n_j - 1,), (n_k - 1,))))
+    both_inner = inner[0] & inner[1]
     hjk = np.where(both_inner, hjk, 0.0)
-    hjj, hkk = hd[:, 0], hd[:, 1]
+    hjj, hkk = hd
     det = hjj * hkk - hjk * hjk
     joint = both_inner & (hjj < 0) & (det > 0)
     safe = np.where(joint, det, 1.0)
     # du: -(hkk gj - hjk gk) / safe; dv: -(hjj gk - hjk gj) / safe.
-    d_joint = -(hd[:, ::-1] * g - hjk[:, None] * g[:, ::-1]) / safe[:, None]
+    d_joint = -(hd[::-1] * g - hjk * g[::-1]) / safe
     # Alone where the other direction is at the bank's edge.
     curved = hd < 0
     d_alone = np.where(inner & curved, -g / np.where(curved, hd, -1.0), 0.0)
-    d = np.minimum(np.maximum(np.where(joint[:, None], d_joint, d_alone), -1.0), 1.0)
-    return d[:, 0], d[:, 1]
+    d = np.minimum(np.maximum(np.where(joint, d_joint, d_alone), -1.0), 1.0)
+    return d[0], d[1]
 
 
 def fit_steps(
