@@ -26,6 +26,8 @@ import struct
 import subprocess
 import sys
 import threading
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from typing import IO, Any
 
 try:
@@ -107,17 +109,38 @@ _EARLY: dict[str, list[subprocess.Popen[bytes]]] = {}
 _EARLY_LOCK = threading.Lock()
 
 
-def start_early(module: str) -> None:
+def start_early(module: str) -> subprocess.Popen[bytes]:
     """Start ``python -m module`` now for the next :class:`ChildProcess` of ``module`` to
     take, so that the child's start (a fresh interpreter importing numpy, OpenCV and its
     modules: about half a second) overlaps what this process does meanwhile. One not taken
-    by the time this process exits is stopped then (it only ever waits for its first
-    message)."""
+    is stopped by :func:`stop_early` (:func:`started_early` does both), at the latest when
+    this process exits."""
     process = _spawn(module)
     with _EARLY_LOCK:
         if not _EARLY:
             atexit.register(_stop_early)
         _EARLY.setdefault(module, []).append(process)
+    return process
+
+
+@contextmanager
+def started_early(*modules: str) -> Iterator[None]:
+    """Each module's child started ahead (:func:`start_early`) for the block; those the block
+    did not take are stopped when it ends, however it ends (a refused input, an error)."""
+    started = [start_early(module) for module in modules]
+    try:
+        yield
+    finally:
+        stop_early(started)
+
+
+def stop_early(processes: Sequence[subprocess.Popen[bytes]]) -> None:
+    """Stop those of ``processes`` started ahead that no ChildProcess took (:func:`_stop_early`)."""
+    with _EARLY_LOCK:
+        left = [p for p in processes if any(p in waiting for waiting in _EARLY.values())]
+        for waiting in _EARLY.values():
+            waiting[:] = [p for p in waiting if p not in left]
+    _kill_all(left)
 
 
 def _take_early(module: str) -> subprocess.Popen[bytes] | None:
@@ -141,16 +164,20 @@ def _close_pipes(process: subprocess.Popen[bytes]) -> None:
 
 
 def _stop_early() -> None:
+    """Stop every child started ahead and never taken: killed, as they hold nothing (no
+    message reached them), so that an early exit (a refused input) does not wait for their
+    imports."""
     with _EARLY_LOCK:
         left = [p for waiting in _EARLY.values() for p in waiting]
         _EARLY.clear()
-    for process in left:
-        _close_pipes(process)  # the child's first read ends: it exits
-        try:
-            process.wait(2.0)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+    _kill_all(left)
+
+
+def _kill_all(processes: Sequence[subprocess.Popen[bytes]]) -> None:
+    for process in processes:
+        process.kill()
+        process.wait()
+        _close_pipes(process)
 
 
 class ChildProcess:

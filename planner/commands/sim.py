@@ -51,14 +51,12 @@ def run(args: argparse.Namespace) -> int:
     touched; the run is built in a staged folder and moved to ``--out`` when complete
     (:mod:`planner.mission.output_folder`).
     """
-    from perception.child_process import start_early
+    from perception.child_process import started_early
     from planner.report.figure_worker import FigureWorker
 
     # The helper processes start first: they import numpy, OpenCV and matplotlib while this
-    # process imports the rest and plans.
-    start_early("sim_harness.render_worker")
-    start_early("perception.mapping.map_process")
-    with FigureWorker() as figures:
+    # process imports the rest and plans (those a refused input leaves unused are stopped).
+    with started_early("sim_harness.render_worker", "perception.mapping.map_process"), FigureWorker() as figures:
         return _run(args, figures)
 
 

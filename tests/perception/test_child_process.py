@@ -32,7 +32,7 @@ def test_a_child_started_ahead_is_the_one_taken(monkeypatch) -> None:
         again.close()
 
 
-def test_a_child_started_ahead_and_never_taken_ends_quietly(monkeypatch) -> None:
+def test_a_child_started_ahead_and_never_taken_is_stopped(monkeypatch) -> None:
     monkeypatch.setattr(cp, "_EARLY", {})
     cp.start_early("sim_harness.render_worker")
     cp.start_early(MODULE)
@@ -42,7 +42,8 @@ def test_a_child_started_ahead_and_never_taken_ends_quietly(monkeypatch) -> None
     dead.wait()
     cp._stop_early()
     assert cp._EARLY == {}
-    assert left[0].wait(5.0) == 0, "the unused child exits of itself, no traceback, no kill"
+    assert left[0].poll() is not None, "the unused child is stopped"
+    assert all(p.stdin.closed and p.stdout.closed for p in left)
 
 
 def test_a_dead_child_started_ahead_is_not_taken(monkeypatch) -> None:
@@ -57,3 +58,16 @@ def test_a_dead_child_started_ahead_is_not_taken(monkeypatch) -> None:
     finally:
         worker.close()
     assert isinstance(worker.process, subprocess.Popen)
+
+
+def test_children_started_early_for_a_block_are_stopped_with_it_unless_taken(monkeypatch) -> None:
+    monkeypatch.setattr(cp, "_EARLY", {})
+    with cp.started_early(MODULE, "sim_harness.render_worker"):
+        unused = cp._EARLY["sim_harness.render_worker"][0]
+        worker = SurveyMapProcess(SurveyMap())  # takes the map process's
+    try:
+        assert unused.poll() is not None, "the block's unused child is stopped when it ends"
+        assert worker.query("targets") == [] and worker.process.poll() is None, "the taken one lives on"
+    finally:
+        worker.close()
+    assert all(not waiting for waiting in cp._EARLY.values())

@@ -62,3 +62,23 @@ def test_a_drawing_error_of_the_figure_process_is_raised_here(tmp_path: Path) ->
         with pytest.raises(ValueError, match="unknown report figure 'nonsense'"):
             worker.result()
         assert worker._child is not None, "an error of the drawing does not end the process"
+
+
+def test_a_figure_process_is_stopped_at_once_unless_every_result_was_taken(two_runs) -> None:
+    idle = FigureWorker()
+    child = idle._child
+    assert child is not None
+    idle.close()  # a refused input: nothing to draw, no wait for its imports
+    assert child.process.returncode == -9
+    here, _ = two_runs
+    busy = FigureWorker()
+    child = busy._child
+    busy.submit("report", here, ["track"])
+    busy.close()  # a failed dive: its jobs are abandoned, nothing writes after close
+    assert child.process.returncode is not None
+    done = FigureWorker()
+    child = done._child
+    done.submit("report", here, ["track"])
+    assert done.result() == {"track": here / FIGURE_DIR / "track.png"}
+    done.close()  # every result taken: it ends as asked
+    assert child.process.returncode == 0
