@@ -26,7 +26,7 @@ import struct
 import subprocess
 import sys
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import IO, Any
 
@@ -54,6 +54,26 @@ def read_message(stream: IO[bytes]) -> Any:
     """The next length-prefixed pickle; EOFError at the end of the stream."""
     header = _read_exactly(stream, _HEADER.size)
     return pickle.loads(_read_exactly(stream, _HEADER.unpack(header)[0]))
+
+
+def answer_each(messages: IO[bytes], replies: IO[bytes], answer: Callable[[Any], Any], *,
+                after: Callable[[], None] | None = None) -> None:
+    """A child's loop: ``answer(message)`` written back for every message, in order, until
+    ``None`` or the end of the stream; ``after()`` once each answer is written (work the
+    parent need not wait for). Ends quietly when the parent is gone (a broken pipe)."""
+    while True:
+        try:
+            message = read_message(messages)
+        except EOFError:
+            return
+        if message is None:
+            return
+        try:
+            write_message(replies, answer(message))
+        except (BrokenPipeError, OSError):
+            return
+        if after is not None:
+            after()
 
 
 def _read_exactly(stream: IO[bytes], n: int) -> bytes:

@@ -19,7 +19,7 @@ import dataclasses
 from collections.abc import Callable
 from typing import IO, Any
 
-from perception.child_process import ChildProcess, child_streams, read_message, write_message
+from perception.child_process import ChildProcess, answer_each, child_streams, read_message
 
 
 class RenderWorkerError(RuntimeError):
@@ -40,25 +40,16 @@ def serve(jobs: IO[bytes], results: IO[bytes]) -> None:
         renderer, pose_factory, keep_label_images = read_message(jobs)
     except EOFError:
         return
-    while True:
-        try:
-            job = read_message(jobs)
-        except EOFError:
-            return
-        if job is None:
-            return
+
+    def render(job: tuple[int, float, dict[str, float]]) -> tuple[Any, ...]:
         seq, t_s, pose_fields = job
         try:
             frame, truth = renderer.render(pose_factory(**pose_fields), t_s)
-            if not keep_label_images:
-                truth = strip_label_images(truth)
-            reply: tuple[Any, ...] = (seq, "ok", frame, truth)
         except Exception as exc:  # sent back and raised in the parent, where it belongs
-            reply = (seq, "error", exc, None)
-        try:
-            write_message(results, reply)
-        except (BrokenPipeError, OSError):
-            return
+            return seq, "error", exc, None
+        return seq, "ok", frame, truth if keep_label_images else strip_label_images(truth)
+
+    answer_each(jobs, results, render)
 
 
 class RenderWorker:

@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import IO, Any
 
-from perception.child_process import ChildProcess, child_streams, read_message, write_message
+from perception.child_process import ChildProcess, answer_each, child_streams, read_message
 from perception.errors import FrameFormatError, GeometryError
 from perception.heights.pipeline import FrameResult, TargetHeight
 from perception.mapping.survey_map import Drift, SurveyMap
@@ -128,36 +128,29 @@ def serve(messages: IO[bytes], replies: IO[bytes]) -> None:
         survey_map: SurveyMap = read_message(messages)
     except EOFError:  # a child started ahead and never used
         return
-    blend_error: Exception | None = None  # the last blend's, answered to the next message
-    while True:
-        try:
-            message = read_message(messages)
-        except EOFError:
-            return
-        if message is None:
-            return
+    blend_error: list[Exception] = []  # the last blend's, answered to the next message
+
+    def answer(message: tuple[str, Any]) -> tuple[str, Any]:
         kind, payload = message
+        if blend_error:
+            return "error", blend_error.pop()
         try:
-            if blend_error is not None:
-                reply: tuple[str, Any] = ("error", blend_error)
-                blend_error = None
-            elif kind == "batch":
+            if kind == "batch":
                 frames, with_targets = payload
-                reply = ("ok", apply_batch(survey_map, frames, with_targets=with_targets))
-            elif kind in QUERIES:
-                reply = ("ok", getattr(survey_map, kind)(*payload))
-            else:
-                reply = ("error", MapProcessError(f"unknown message {kind!r}"))
+                return "ok", apply_batch(survey_map, frames, with_targets=with_targets)
+            if kind in QUERIES:
+                return "ok", getattr(survey_map, kind)(*payload)
+            return "error", MapProcessError(f"unknown message {kind!r}")
         except Exception as exc:  # sent back and raised in the parent, where it belongs
-            reply = ("error", exc)
-        try:
-            write_message(replies, reply)
-        except (BrokenPipeError, OSError):
-            return
+            return "error", exc
+
+    def blend() -> None:
         try:
             survey_map.finish_frame()
         except Exception as exc:  # raised in the parent at its next answer
-            blend_error = exc
+            blend_error.append(exc)
+
+    answer_each(messages, replies, answer, after=blend)
 
 
 class SurveyMapProcess:

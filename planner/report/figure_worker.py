@@ -22,7 +22,7 @@ import os
 from collections.abc import Sequence
 from typing import IO, Any
 
-from perception.child_process import ChildProcess, child_streams, read_message, write_message
+from perception.child_process import ChildProcess, answer_each, child_streams
 
 _log = logging.getLogger(__name__)
 
@@ -60,21 +60,14 @@ def run_job(kind: str, args: tuple[Any, ...], kwargs: dict[str, Any]) -> Any:
 
 def serve(jobs: IO[bytes], results: IO[bytes]) -> None:
     """The child's loop: draw every job in order until ``None``, answering each."""
-    while True:
-        try:
-            job = read_message(jobs)
-        except EOFError:
-            return
-        if job is None:
-            return
-        try:
-            reply: tuple[str, Any] = ("ok", run_job(*job))
-        except Exception as exc:  # raised in the parent, where it belongs
-            reply = ("error", exc)
-        try:
-            write_message(results, reply)
-        except (BrokenPipeError, OSError):
-            return
+    answer_each(jobs, results, _answer)
+
+
+def _answer(job: tuple[str, tuple[Any, ...], dict[str, Any]]) -> tuple[str, Any]:
+    try:
+        return "ok", run_job(*job)
+    except Exception as exc:  # raised in the parent, where it belongs
+        return "error", exc
 
 
 class FigureWorker:
