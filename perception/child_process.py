@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import atexit
 import collections
+import contextlib
 import os
 import pickle
 import signal
@@ -27,7 +28,6 @@ import subprocess
 import sys
 import threading
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
 from typing import IO, Any
 
 try:
@@ -143,7 +143,7 @@ def start_early(module: str) -> subprocess.Popen[bytes]:
     return process
 
 
-@contextmanager
+@contextlib.contextmanager
 def started_early(*modules: str) -> Iterator[None]:
     """Each module's child started ahead (:func:`start_early`) for the block; those the block
     did not take are stopped when it ends, however it ends (a refused input, an error)."""
@@ -177,10 +177,8 @@ def _take_early(module: str) -> subprocess.Popen[bytes] | None:
 def _close_pipes(process: subprocess.Popen[bytes]) -> None:
     for stream in (process.stdin, process.stdout):
         if stream is not None:
-            try:
+            with contextlib.suppress(OSError):  # already broken: nothing left to close
                 stream.close()
-            except OSError:
-                pass
 
 
 def _stop_early() -> None:

@@ -17,6 +17,7 @@ An error of the drawing itself is raised here, as it would be drawing here.
 from __future__ import annotations
 
 import collections
+import contextlib
 import logging
 import os
 from collections.abc import Sequence
@@ -147,10 +148,8 @@ def warm_up(modules: Sequence[str] = ("planner.report.figures", "planner.report.
 
 def main() -> None:
     """The child process."""
-    try:
+    with contextlib.suppress(AttributeError, OSError):  # no niceness here: the same pictures, only less polite
         os.nice(CHILD_NICENESS)
-    except (AttributeError, OSError):  # no niceness here: the same pictures, only less polite
-        pass
     streams = child_streams()
     warm_up()
     serve(*streams)
