@@ -13,7 +13,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
-import threading
 from collections.abc import Iterator
 from typing import Any, Self
 
@@ -105,7 +104,7 @@ class VehicleLink(LinkCore):
         CommandTimeout
             No ack after ``attempts`` sends of ``timeout_s`` each.
         """
-        if threading.current_thread() is self._thread:
+        if self.in_io_pass():
             raise RuntimeError(
                 "send_command called from the I/O thread (a callback): it would wait for its "
                 "own ack; hand the work to another thread"

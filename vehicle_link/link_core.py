@@ -9,10 +9,12 @@ record of each kind under a lock, notifies a condition variable, and on every pa
 the injected clock to send our heartbeat when due and to detect link loss/recovery.
 Caller threads wait on that condition, measuring timeouts on the injected clock. With
 ``threaded=False`` there is no thread: the caller drives the link with ``pump()``, and
-every blocking method pumps while it waits.
+every blocking method pumps while it waits. On a lockstep simulation clock the passes
+run where :mod:`vehicle_link.io_driver` says (the simulator's thread, where it can).
 
 Callbacks (telemetry listeners, ``on_link_lost``, ``on_link_restored``) run on the I/O
-thread (or inside ``pump``), outside the lock: keep them short, never block in them.
+thread (or inside ``pump``, or the simulator's poll), outside the lock: keep them short,
+never block in them.
 
 Other systems are recorded too (:class:`~vehicle_link.records.PeerSeen`): every
 HEARTBEAT not from the vehicle's autopilot (the topside ground station, BlueOS's own
@@ -33,6 +35,7 @@ from vehicle_link import commands
 from vehicle_link.clock import Clock, WallClock
 from vehicle_link.config import LinkConfig
 from vehicle_link.errors import LinkLost, StaleTelemetry
+from vehicle_link.io_driver import IoDriver
 from vehicle_link.records import LinkHealth, LinkStats, PeerSeen
 from vehicle_link.signing import enable_signing
 from vehicle_link.store import TelemetryStore
@@ -103,9 +106,7 @@ class LinkCore(TelemetryStore):
         self._t0_s = self._clock.now_s()
         self._transport: MavlinkTransport | None = None
         self._tlog: TlogWriter | None = None
-        self._thread: threading.Thread | None = None
-        self._stop = threading.Event()
-        self._running = threading.Event()  # the I/O thread is in its loop (a participant, in lockstep)
+        self._io = IoDriver(self._clock, self._service_pass, config.io_poll_s) if threaded else None
 
     # ---- lifecycle ---------------------------------------------------------------------
 
@@ -127,56 +128,25 @@ class LinkCore(TelemetryStore):
                 self._transport.mav, self.config.signing_key, link_id=self.config.signing_link_id
             )
         self._next_heartbeat_s = self._clock.now_s()
-        if self._threaded:
-            self._stop.clear()
-            self._thread = threading.Thread(target=self._run, name="vehicle_link-io", daemon=True)
-            self._running.clear()
-            self._thread.start()
-            # Back only once the thread is a lockstep clock's participant: else time could
-            # move on without it and the first replies come a scheduler-dependent step late.
-            self._running.wait(timeout=5.0)
+        if self._io is not None:
+            self._io.start()
 
     def close(self) -> None:
         """Stop the I/O thread, close the connection and the tlog."""
-        self._stop.set()
-        notify = getattr(self._clock, "notify", None)
-        if notify is not None:
-            notify()
-        if self._thread is not None:
-            self._thread.join(timeout=5.0)
-            self._thread = None
+        if self._io is not None:
+            self._io.stop()
         if self._transport is not None:
             self._transport.close()
             self._transport = None
         if self._tlog is not None:
             self._tlog.close()
 
-    # ---- I/O loop ----------------------------------------------------------------------
+    # ---- I/O passes ----------------------------------------------------------------------
 
-    def _run(self) -> None:
-        participant = getattr(self._clock, "participant", None)
-        wait_for = getattr(self._clock, "wait_for", None)
-        if participant is None or wait_for is None:
-            self._running.set()
-            while not self._stop.is_set():
-                self._service_pass(self.config.io_poll_s)
-            return
-        # A lockstep simulation clock (sim_harness.clock.SimClock) advances only while every
-        # participant waits on it: this thread joins in (as a reader, rank -1, let go before
-        # the controller in each step), drains the socket without blocking, then waits on
-        # the clock, so no reply of the simulated vehicle is missed or late in simulated time.
-        try:
-            joined = participant("vehicle_link-io", rank=-1)
-        except TypeError:  # a lockstep clock without ranks
-            joined = participant("vehicle_link-io")
-        with joined:
-            self._running.set()
-            while not self._stop.is_set():
-                self._service_pass(0.0)
-                try:
-                    wait_for(self._stop.is_set, self.config.io_poll_s)
-                except Exception:  # the clock was stopped: the simulation is over
-                    return
+    def in_io_pass(self) -> bool:
+        """Whether the calling thread is in an I/O pass (a callback: the I/O thread, or the
+        lockstep clock's poller)."""
+        return self._io is not None and self._io.in_pass()
 
     def _service_pass(self, wait_s: float) -> None:
         try:

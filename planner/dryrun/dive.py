@@ -39,7 +39,7 @@ from planner.mission.output_folder import staged_folder
 from planner.mission.products import summary_document, write_products
 from planner.mission.run_folder import RunFolder, mark_partial
 from planner.mission.safety import SafetyLimits
-from planner.report.figure_worker import FigureWorker
+from planner.report.figure_worker import REPORT_DRAWING_MODULES, FigureWorker
 from planner.survey.area import SurveyArea, load_area
 from planner.survey.lawnmower import plan_survey
 from planner.survey.mission_files import write_outputs
@@ -319,7 +319,9 @@ def run_dry_dive(
                                           "altitude_excursions": [ex.to_dict() for ex in excursions], **truth_extra})
         run.write_json("summary.json", summary)
         if figures is not None:
-            figures.wait_all()  # the plan's and the map's pictures are in the folder before it is complete
+            # The plan's and the map's pictures are in the folder before it is complete; this
+            # process imports matplotlib for the report's own figures meanwhile (the report follows).
+            figures.wait_all(warm_here=REPORT_DRAWING_MODULES)
         run.close()
         return DryRun(Path(out_dir), plan, result, summary, sim)
     finally:

@@ -35,6 +35,10 @@ CHILD_NICENESS = 5
 #: about half the drawing time each way on the default dive.
 CHILD_REPORT_FIGURES = ("tilt", "heights")
 
+#: What the dive's process imports to draw its share of the report's figures
+#: (:func:`planner.report.report_figures.draw_figures`: matplotlib).
+REPORT_DRAWING_MODULES = ("planner.report.figures",)
+
 
 class FigureWorkerError(RuntimeError):
     """The figure process died or could not be started."""
@@ -109,8 +113,12 @@ class FigureWorker:
                 return value
         return run_job(kind, args, kwargs)
 
-    def wait_all(self) -> list[Any]:
-        """Every queued job's result, in order (:meth:`result`)."""
+    def wait_all(self, *, warm_here: Sequence[str] = ()) -> list[Any]:
+        """Every queued job's result, in order (:meth:`result`). ``warm_here``: modules to
+        import in this process first, while the child draws (those of the figures this
+        process draws next: the wait then costs nothing)."""
+        if warm_here and self._jobs and self._child is not None:
+            warm_up(warm_here)
         return [self.result() for _ in range(len(self._jobs))]
 
     def _lost(self, exc: Exception) -> None:

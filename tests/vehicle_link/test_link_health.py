@@ -231,6 +231,11 @@ def test_the_io_thread_holds_a_lockstep_clock_before_open_returns():
     from vehicle_link.config import LinkConfig
 
     class SlowToJoin(SimClock):
+        # A lockstep clock without pollers, so the link runs its I/O thread (a SimClock's
+        # pollers take the pass into the simulator's thread:
+        # test_the_io_pass_is_a_lockstep_clocks_poller_before_open_returns).
+        add_poller = None
+
         @contextmanager
         def participant(self, name=None):
             time.sleep(0.2)  # a thread that is slow to get the interpreter
@@ -248,6 +253,39 @@ def test_the_io_thread_holds_a_lockstep_clock_before_open_returns():
             assert "vehicle_link-io" in names
         finally:
             link.close()
+    finally:
+        peer.close()
+        clock.stop()
+
+
+def test_the_io_pass_is_a_lockstep_clocks_poller_before_open_returns():
+    """On a SimClock the I/O pass is a poller of the clock, registered before open()
+    returns, with the I/O thread's period; a callback in that pass is refused a blocking
+    command as it would be on the I/O thread; close() removes it."""
+    import socket
+
+    from sim_harness.clock import SimClock
+    from vehicle_link.client import ArduSubClient
+    from vehicle_link.config import LinkConfig
+
+    clock = SimClock()
+    peer = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    peer.bind(("127.0.0.1", 0))
+    try:
+        link = ArduSubClient(LinkConfig(f"udpout:127.0.0.1:{peer.getsockname()[1]}"), clock=clock)
+        link.open()
+        try:
+            assert [p.name for p in clock._pollers] == ["vehicle_link-io"]
+            assert clock._pollers[0].period_s == link.config.io_poll_s
+            assert not clock._participants  # no thread of its own
+            assert not link.in_io_pass()
+            link._io._pass_thread = threading.get_ident()  # as inside the poller's pass
+            with pytest.raises(RuntimeError, match="I/O thread"):
+                link.arm()
+            link._io._pass_thread = None
+        finally:
+            link.close()
+        assert clock._pollers == []
     finally:
         peer.close()
         clock.stop()

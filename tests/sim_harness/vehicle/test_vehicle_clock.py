@@ -243,3 +243,70 @@ def test_a_reader_of_lower_rank_runs_first_in_every_step():
     sim.join(5.0)
     th.join(5.0)
     assert [t for t, _ in seen] == [s for _, s in seen]
+
+
+def test_a_poller_runs_in_the_simulators_thread_before_the_step_is_let_go():
+    """A poller (a link's socket read, :meth:`SimClock.add_poller`) runs every period in the
+    thread that advances the clock, once per due step, before any participant sees that
+    step: the controller always sees what it stored in this step, as with a rank -1 reader."""
+    clock = SimClock()
+    stored = {"t": -1.0}
+    threads, runs = set(), []
+
+    def poll() -> None:
+        threads.add(threading.get_ident())
+        runs.append(clock.now_s())
+        stored["t"] = clock.now_s()
+
+    poller = clock.add_poller("reader", 0.02, poll)
+    seen = []
+    with clock.participant("controller"):
+        sim = _run_sim(clock, 100.0)
+        for _ in range(40):
+            clock.sleep_s(0.02)
+            seen.append((clock.now_s(), stored["t"]))
+        poller.remove()
+        n_runs = len(runs)
+        clock.sleep_s(0.2)
+    clock.stop()
+    sim.join(5.0)
+    assert [t for t, _ in seen] == [s for _, s in seen]
+    assert threads == {sim.ident}
+    # every 0.02 s of simulated time from when it was added (the clock steps 0.01 s)
+    assert runs[:5] == pytest.approx([0.02, 0.04, 0.06, 0.08, 0.10])
+    assert len(runs) == n_runs  # never again once removed
+    with pytest.raises(SimConfigError, match="positive"):
+        clock.add_poller("bad", 0.0, poll)
+
+
+def test_removing_a_poller_waits_for_its_pass_under_way():
+    """``remove()`` from another thread returns only once a pass under way has ended (so a
+    link that closes its socket after it never has a pass read a closed socket); from the
+    poller's own pass it does not wait for itself."""
+    import time
+
+    clock = SimClock()
+    entered, events = threading.Event(), []
+
+    def slow() -> None:
+        entered.set()
+        time.sleep(0.2)
+        events.append("pass ended")
+
+    poller = clock.add_poller("slow", 0.01, slow)
+    sim = _run_sim(clock, 0.05)
+    assert entered.wait(5.0)
+    poller.remove()
+    events.append("removed")
+    sim.join(5.0)
+    assert events == ["pass ended", "removed"]
+
+    clock2, runs = SimClock(), []
+
+    def once() -> None:
+        runs.append(clock2.now_s())
+        me.remove()
+
+    me = clock2.add_poller("once", 0.01, once)
+    _run_sim(clock2, 0.1).join(5.0)
+    assert runs == pytest.approx([0.01])
