@@ -82,7 +82,6 @@ class FigureWorker:
     def __init__(self) -> None:
         self._jobs: collections.deque[tuple[str, tuple[Any, ...], dict[str, Any]]] = collections.deque()
         self._child: ChildProcess | None = None
-        self._sent = False  # whether a job was ever sent (see close)
         try:
             self._child = ChildProcess("planner.report.figure_worker", what="the figure process",
                                        error=FigureWorkerError)
@@ -92,7 +91,6 @@ class FigureWorker:
     def submit(self, kind: str, *args: Any, **kwargs: Any) -> None:
         """Queue one job (:func:`run_job`); its result comes with :meth:`result`, in order."""
         self._jobs.append((kind, args, kwargs))
-        self._sent = True
         if self._child is not None:
             try:
                 self._child.send((kind, args, kwargs))
@@ -128,13 +126,14 @@ class FigureWorker:
         self._child = None
 
     def close(self) -> None:
-        """Stop the child. One whose every result was taken ends as asked; one that was sent
-        nothing (a refused input) or still has jobs (a failed dive, whose folder is set
-        aside) is killed at once: it holds nothing wanted, and nothing writes after this."""
+        """Stop the child, at once: whatever it could still do is unwanted. One sent nothing
+        (a refused input) holds nothing; one with jobs left (a failed dive, whose folder is
+        set aside) must write nothing after this; one whose every result was taken is done,
+        and its own ending (a matplotlib interpreter's teardown, about 0.25 s) is not
+        waited for."""
         if self._child is not None:
-            if self._jobs or not self._sent:
-                self._child.process.kill()
-                self._child.process.wait()
+            self._child.process.kill()
+            self._child.process.wait()
             self._child.close()
             self._child = None
 
