@@ -257,7 +257,7 @@ def run_dry_dive(
             try:
                 holder["result"] = executor.run_dive()
             except CompanionDied:
-                # Killed: no safe action, no goodbye; the link's I/O thread dies with it.
+                # Killed: no safe action, no goodbye; the link's I/O passes die with it.
                 holder["killed_s"] = clock.now_s()
                 executor.result.status, executor.result.reason = "killed", "companion_killed"
                 executor.result.message = f"the companion's process was killed at {clock.now_s():.1f} s"
