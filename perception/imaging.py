@@ -21,6 +21,7 @@ __all__ = [
     "bounding_box",
     "box_mean",
     "box_sum_replicate",
+    "column_cumsum",
     "draw_filled_contour",
     "encode_png",
     "erode",
@@ -91,6 +92,27 @@ def box_sum_replicate(image: NDArray[np.uint16], width: int, height: int) -> F32
     _check(image, "image", (np.uint16,))
     return np.asarray(cv2.boxFilter(image, cv2.CV_32F, (width, height), normalize=False,
                                     borderType=cv2.BORDER_REPLICATE))
+
+
+#: Most channels the Python binding wraps (column_cumsum's beams per call).
+_MAX_CHANNELS = 128
+
+
+def column_cumsum(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Cumulative sums down each column of a float64 (M, n) array, after a zero row:
+    shape (M + 1, n), float64, C-contiguous; ``out[i + 1] = out[i] + values[i]``, the very
+    additions of ``numpy.cumsum(axis=0)`` in the same order (identical bits for values
+    without -0.0, whose first sum is +0.0 here). OpenCV's integral of the array as one
+    column of n channels: each channel's running sum on its own, several times faster than
+    numpy's strided accumulation down the columns."""
+    _check(values, "values", (np.float64,))
+    m, n = values.shape
+    out = np.zeros((m + 1, n)) if values.size == 0 else np.empty((m + 1, n))
+    for c0 in range(0, n if m else 0, _MAX_CHANNELS):
+        c1 = min(c0 + _MAX_CHANNELS, n)
+        block = np.ascontiguousarray(values[:, c0:c1]).reshape(m, 1, c1 - c0)
+        out[:, c0:c1] = np.asarray(cv2.integral(block, sdepth=cv2.CV_64F)).reshape(m + 1, 2, c1 - c0)[:, 1]
+    return out
 
 
 def erode(image: np.ndarray, kernel: U8, *, replicate: bool = False) -> np.ndarray:

@@ -281,8 +281,7 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     flat += first_row * n_cols + beams
     power = seg.power_of(seg.levels.ravel().take(flat))
     m_rows = length
-    cum = np.zeros((m_rows + 1, beams.size))
-    power.cumsum(axis=0, out=cum[1:])
+    cum = imaging.column_cumsum(power)  # zero row first; numpy's cumsum's additions
     h = (k - 1) // 2
     # In local rows (of ``power``). The region's rows can hold more than the cast shadow:
     # a target's dim top (seen at grazing incidence, or low-contrast), a few dB under the
