@@ -145,7 +145,9 @@ class _Search:
 
 
 def _search(y: FloatArray, w: FloatArray, bank: _Bank, sign: FloatArray) -> _Search:
-    """Weighted least squares of every profile against every template (one product)."""
+    """Weighted least squares of every profile against every template (one product).
+
+    ``sign`` is +1 or -1 per profile."""
     n = y.shape[0]
     k = bank.t.shape[1]
     w_wy = np.empty((2 * n, y.shape[1]))  # rows: w then w y (their sums, and the product's rows)
@@ -153,25 +155,38 @@ def _search(y: FloatArray, w: FloatArray, bank: _Bank, sign: FloatArray) -> _Sea
     np.multiply(w, y, out=w_wy[n:])
     sw, sy = np.add.reduce(w_wy, axis=1).reshape(2, n, 1)
     sums = w_wy @ bank.t_t2  # rows: w then wy; columns: t then t2
-    # In place over the product's blocks (each read once) and one scratch array.
     sp = sums[:n, :k]
-    num = sums[n:, :k]
-    num *= sw
-    scratch = np.multiply(sp, sy)
-    num -= scratch  # sw * spy - sp * sy: b times det
-    det = sums[:n, k:]
-    det *= sw
+    # Each first operation reads the product's blocks (strided) into a new contiguous array:
+    # the later ones then run over contiguous memory, several times faster. The sign rides on
+    # the (n, 1) factors: sign * (sw * spy - sp * sy) = (sign sw) spy - sp (sign sy) exactly
+    # (a factor of +-1 only flips signs), so ``num`` holds sign times b det.
+    s = sign[:, None]
+    num = np.multiply(sums[n:, :k], sw * s)
+    scratch = np.multiply(sp, sy * s)
+    num -= scratch
+    det = np.multiply(sums[:n, k:], sw)
     det -= np.multiply(sp, sp, out=scratch)  # sw * spp - sp^2 >= 0 (0 for a template flat over the window)
     det += 1e-12 * sw * sw
     score = np.abs(num, out=scratch)
     score *= num
-    score *= sign[:, None]
     score /= det  # the explained sum of squares times sw, signed
-    rows = np.arange(n)
     best = score.argmax(axis=1)
-    b = num[rows, best] / det[rows, best]
-    a = (sy[:, 0] - b * sp[rows, best]) / sw[:, 0]
+    # The best templates' values by flat index (one take each: cheaper than indexing by rows
+    # and columns); b = num / det * sign, the sign's flip undone exactly.
+    row_k, row_2k = _row_starts(n, k)
+    at = row_k + best
+    b = num.take(at) / det.take(at) * sign
+    a = (sy[:, 0] - b * sums.take(row_2k + best)) / sw[:, 0]
     return _Search(best=best, a=a, b=b, score=score)
+
+
+@functools.lru_cache(maxsize=16)
+def _row_starts(n: int, k: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Flat index of each of ``n`` rows' first element in rows of ``k`` and of ``2 k``, read-only."""
+    out = (np.arange(n) * k, np.arange(n) * (2 * k))
+    for array in out:
+        array.flags.writeable = False
+    return out
 
 
 def _levels(phi: FloatArray, y: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
