@@ -221,7 +221,7 @@ def _aligned_fits(
     beams = np.add.reduce(member, axis=1)
     mean = sums / np.maximum(counts, 1.0)
     weights = (counts >= 0.5 * np.maximum(beams, 1.0)[:, None]) & (beams[:, None] > 0)
-    has = (np.count_nonzero(weights, axis=1) >= 5).nonzero()[0]
+    has = (np.add.reduce(weights, axis=1, dtype=np.intp) >= 5).nonzero()[0]  # np.count_nonzero's sum
     if has.size:
         signs = np.repeat(np.array([k[4] for k in kinds], dtype=np.float64), n_pairs)[has]
         fit = fit_steps(mean[has], weights[has].astype(np.float64), edge0=half + 0.5, sign=signs)

@@ -334,8 +334,10 @@ def fit_steps(
     model = a[:, None] + b[:, None] * phi
     # (x0, log s) side by side for the Gauss-Newton steps, and their bounds.
     params = np.array([x0, log_s])
-    lowest = np.array([first, np.full(n, math.log(MIN_BLUR_SAMPLES))])
-    highest = np.array([last, np.full(n, math.log(widest))])
+    bounds = np.empty((2, 2, n))  # lowest, highest
+    bounds[0, 0], bounds[0, 1] = first, math.log(MIN_BLUR_SAMPLES)
+    bounds[1, 0], bounds[1, 1] = last, math.log(widest)
+    lowest, highest = bounds
     # The last pass's Jacobian of all four parameters (levels, edge, blur), for the 1-sigma.
     jac = np.empty((n, 4, m))
     jac[:, 0] = 1.0

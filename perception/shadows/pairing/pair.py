@@ -243,7 +243,8 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
     first_all, last_all = segmentation.shadow_rows
     highlights = {t.label: t for t in segmentation.highlights}
     # Algorithm 1's |T| (beams holding the highlight), of every label at once.
-    highlight_beams = np.count_nonzero(segmentation.highlight_rows[1] >= 0, axis=1).tolist()
+    # (np.count_nonzero's own sum, without its Python wrapper.)
+    highlight_beams = np.add.reduce(segmentation.highlight_rows[1] >= 0, axis=1, dtype=np.intp).tolist()
     pairs: list[Pair] = []
     for s in segmentation.shadows:
         box = slice(s.col_start, s.col_stop)
