@@ -298,8 +298,8 @@ def hysteresis_along_beams(strong: NDArray[np.bool_], weak: NDArray[np.bool_]) -
     """Per beam (column), every run of ``weak`` rows that holds a ``strong`` row (``strong``
     is added to ``weak``), shape of the masks.
 
-    Only the beams with a ``strong`` row, and the rows from the first to the last of the
-    masks there, are worked on (:func:`_hysteresis_block`).
+    Only the rows from the first to the last of the masks are worked on
+    (:func:`_hysteresis_block`).
     """
     out = np.zeros(strong.shape, dtype=bool)
     grown = _hysteresis_block(strong, weak)
@@ -311,15 +311,18 @@ def hysteresis_along_beams(strong: NDArray[np.bool_], weak: NDArray[np.bool_]) -
 
 def _hysteresis_block(
     strong: NDArray[np.bool_], weak: NDArray[np.bool_]
-) -> tuple[int, int, NDArray[np.intp], NDArray[np.bool_]] | None:
-    """:func:`hysteresis_along_beams` where it can differ from ``strong``: rows ``r0:r1`` of
-    the beams ``cols`` (those with a ``strong`` row) and the result there; None when no
-    beam has one (outside the block ``strong`` is all False, and so is the result).
-    Segmentation writes the block into its mask in place."""
-    cols = np.logical_or.reduce(strong, axis=0).nonzero()[0]
-    if cols.size == 0:
+) -> tuple[int, int, slice, NDArray[np.bool_]] | None:
+    """:func:`hysteresis_along_beams` where it can differ from ``strong``: rows ``r0:r1``
+    (every beam: ``cols`` is ``slice(0, n_beams)``) and the result there; None when no beam has a
+    ``strong`` row (the result is then ``strong``, all False). Outside those rows the mask,
+    and so ``strong``, is all False. Segmentation writes the block into its mask in place.
+
+    Every beam is worked on, not only those with a ``strong`` row: a beam without one keeps
+    none of its runs (False, as ``strong`` there), and the column gathers and the scatter
+    of the result cost more than the extra columns."""
+    if not strong.any():
         return None
-    mask = (weak | strong)[:, cols]  # (one gather of the columns: cheaper than two)
+    mask = weak | strong
     occupied = np.logical_or.reduce(mask, axis=1).nonzero()[0]
     r0, r1 = int(occupied[0]), int(occupied[-1]) + 1
     mask = mask[r0:r1]
@@ -332,9 +335,9 @@ def _hysteresis_block(
     run_id = np.cumsum(starts, axis=0, dtype=np.int32)
     run_id += (np.arange(n_cols, dtype=np.int32) * (n_rows + 1))[None, :]
     has = np.zeros(n_cols * (n_rows + 1), dtype=bool)
-    has[run_id[strong[r0:r1, cols]]] = True
+    has[run_id[strong[r0:r1]]] = True
     has[::n_rows + 1] = False  # id 0 of each column: before any run
-    return r0, r1, cols, np.logical_and(has.take(run_id), mask)
+    return r0, r1, slice(0, n_cols), np.logical_and(has.take(run_id), mask)
 
 
 def _core_pixels(
