@@ -298,7 +298,9 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     band_start, band_stop = seg.band_start_rows[beams] - lo, seg.band_stop_rows[beams] - lo
     in_region = ((local >= np.maximum(sf - d, band_start)[None, :])
                  & (local <= np.minimum(sl + (d + 1 - half_level), band_stop + (2 - half_level))[None, :]))
-    floor = np.minimum.reduce(run, axis=0, where=in_region, initial=np.inf)
+    # The least over each beam's region of the run means: outside it +inf, then the plain
+    # reduction (the same minimum of the same values, in half the time of ``where=``).
+    floor = np.minimum.reduce(np.where(in_region, run, np.inf), axis=0)
     # (In place: neither is read again.)
     deep = np.less(np.multiply(run, run, out=run), np.multiply(floor[None, :], b_lin, out=b_lin))
     deep &= in_region
