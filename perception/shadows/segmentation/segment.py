@@ -47,6 +47,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from perception import imaging
 from perception.shadows.segmentation.band import band_edges, longest_run, shadow_in_edges
 from perception.shadows.segmentation.classical import classical_regions
 from perception.shadows.segmentation.config import METHODS, SegmentationConfig
@@ -332,7 +333,11 @@ def _hysteresis_block(
     np.greater(mask[1:], mask[:-1], out=starts[1:])
     # 1.. per run within a column (0 before its first; after a run, that run's id until the
     # next: those rows are outside the mask, which the result is cut to).
-    run_id = np.cumsum(starts, axis=0, dtype=np.int32)
+    # (Summed along the rows of the transpose, a view of it returned: integers, exact in any
+    # order, and several times faster than numpy's cumulative sum down the columns.)
+    run_id = imaging.transpose(starts.view(np.uint8)).astype(np.int32)
+    np.add.accumulate(run_id, axis=1, out=run_id)
+    run_id = run_id.T
     run_id += (np.arange(n_cols, dtype=np.int32) * (n_rows + 1))[None, :]
     has = np.zeros(n_cols * (n_rows + 1), dtype=bool)
     has[run_id[strong[r0:r1]]] = True
