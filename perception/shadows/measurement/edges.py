@@ -127,18 +127,23 @@ def _crossings(cum: FloatArray, h: int, level: FloatArray, start: NDArray[np.int
     n_kinds, n = level.shape
     width = max(1, int(np.maximum.reduce(stop - start, axis=None)) if start.size else 1)
     rows = start.reshape(1, -1) + np.arange(width)[:, None]
-    inside = (rows < stop.reshape(1, -1)) & (rows >= 0) & (rows < m)
-    # Flat indices into ``cum`` (one take each: cheaper than indexing by rows and columns).
-    cols = _tiled_columns(n, n_kinds)
-    a = np.minimum(np.maximum(rows - h, 0), m)
-    b = np.minimum(np.maximum(rows + (h + 1), 0), m)
-    count = np.maximum(b - a, 1)
-    a *= n
-    a += cols
-    b *= n
-    b += cols
-    smoothed = cum.take(b)
-    smoothed -= cum.take(a)
+    # rows < stop, >= 0 and < m in one comparison: as unsigned, a negative row is greater
+    # than any bound (and the bound, stop within [0, m], has every row below it that is
+    # below both).
+    rows = rows.astype(np.intp, copy=False)
+    bound = np.minimum(np.maximum(stop.reshape(1, -1), 0), m).astype(np.uintp)
+    inside = rows.view(np.uintp) < bound
+    # Each smoothing window's ends (a: first row, b: past its last; clamped), both in one
+    # array, then as flat indices into ``cum`` (one take: cheaper than indexing by rows
+    # and columns).
+    ends = rows[None] + np.array((-h, h + 1)).reshape(2, 1, 1)  # (2, width, k n): rows - h, rows + h + 1
+    np.maximum(ends, 0, out=ends)
+    np.minimum(ends, m, out=ends)
+    count = np.maximum(ends[1] - ends[0], 1)
+    ends *= n
+    ends += _tiled_columns(n, n_kinds)
+    at_ends = cum.take(ends)
+    smoothed = np.subtract(at_ends[1], at_ends[0], out=at_ends[1])
     smoothed /= count
     hit = (smoothed >= level.reshape(1, -1)) & inside
     found = hit.any(axis=0)
