@@ -183,7 +183,7 @@ def _block_count(grid: NDArray[np.float32], block_rows: int) -> tuple[int, int, 
 
 
 @functools.lru_cache(maxsize=16)
-def _block_axes(n_rows: int, n_blocks: int, block: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def block_axes(n_rows: int, n_blocks: int, block: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The rows 0 .. n_rows - 1 and the centres of ``n_blocks`` blocks of ``block`` rows,
     read-only: where per-block values are interpolated to, and from (per geometry, not per frame)."""
     rows = np.arange(n_rows, dtype=np.float64)
@@ -225,7 +225,7 @@ def row_spread(grid: NDArray[np.float32], background: NDArray[np.float32], *, bl
         before = np.concatenate([spread[-1:], spread[:-1]])
         after = np.concatenate([spread[1:], spread[:1]])
         spread = np.maximum(np.minimum(spread, np.maximum(before, after)), 0)
-    rows, centres = _block_axes(n_rows, n_blocks, block)
+    rows, centres = block_axes(n_rows, n_blocks, block)
     return np.interp(rows, centres, spread).astype(np.float32)
 
 
@@ -290,7 +290,7 @@ def row_background(
         level = np.minimum(level, running_median(level, size=size))
     if block == 1:
         return np.asarray(level, dtype=np.float32)
-    rows, centres = _block_axes(n_rows, n_blocks, block)
+    rows, centres = block_axes(n_rows, n_blocks, block)
     return np.interp(rows, centres, level).astype(np.float32)
 
 

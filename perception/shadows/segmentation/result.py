@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from perception import imaging
 from perception.shadows.segmentation.grid import ColumnRows, Extents, Region
-from perception.shadows.segmentation.levels import Levels, power_table
+from perception.shadows.segmentation.levels import Levels, block_axes, power_table
 
 #: Label codes of :meth:`Segmentation.label_image` (kept equal to the simulator's where they overlap).
 LABEL_OTHER = 0
@@ -159,7 +159,7 @@ class Segmentation:
     @functools.cached_property
     def background(self) -> NDArray[np.float32]:
         """Seabed level of each full-resolution row, shape (n_samples,), float32, level units."""
-        return self._background_at(np.arange(self.n_rows))
+        return self._background_at(0, self.n_rows)
 
     def background_rows(self, start: int, stop: int) -> NDArray[np.float32]:
         """``background[start:stop]`` (0 <= start <= stop <= n_samples), interpolated at those
@@ -168,12 +168,13 @@ class Segmentation:
         known = self.__dict__.get("background")
         if known is not None:
             return known[start:stop]
-        return self._background_at(np.arange(start, stop))
+        return self._background_at(start, stop)
 
-    def _background_at(self, rows: NDArray[np.intp]) -> NDArray[np.float32]:
-        d = self.row_step
-        centres = (np.arange(self.grid_background.size) + 0.5) * d - 0.5
-        return np.interp(rows, centres, self.grid_background).astype(np.float32)
+    def _background_at(self, start: int, stop: int) -> NDArray[np.float32]:
+        # The rows as float64 and the grid rows' centres ((i + 0.5) d - 0.5, the same
+        # operations), cached per geometry.
+        rows, centres = block_axes(self.n_rows, self.grid_background.size, self.row_step)
+        return np.interp(rows[start:stop], centres, self.grid_background).astype(np.float32)
 
     @functools.cached_property
     def insonified_rows(self) -> NDArray[np.bool_]:
