@@ -251,11 +251,12 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
     counts = np.array([len(c) for c in centrals], dtype=np.intp)
     if not any(centrals):
         return _empty(counts)
-    # Per central beam: its column, its pair, the pair's shadow and highlight labels (-1: none);
-    # one array from lists (a frame has a few dozen such beams).
-    per_beam = [(c, n, p.shadow.label, -1 if p.highlight is None else p.highlight.label)
-                for n, (p, central) in enumerate(zip(pairs, centrals, strict=True)) for c in central]
-    beams, owner, s_label, h_label = np.array(list(zip(*per_beam, strict=True)), dtype=np.intp)
+    # Per central beam: its column, its pair, the pair's shadow and highlight labels (-1: none)
+    # (the pairs' labels repeated over their beams: fewer Python objects than per beam).
+    beams = np.array([c for central in centrals for c in central], dtype=np.intp)
+    owner = np.arange(n_pairs).repeat(counts)
+    s_label, h_label = np.array([(p.shadow.label, -1 if p.highlight is None else p.highlight.label)
+                                 for p in pairs], dtype=np.intp)[owner].T
     s_first = seg.shadow_rows[0][s_label, beams]
     s_last = seg.shadow_rows[1][s_label, beams]
     has_h = h_label >= 0
