@@ -26,8 +26,9 @@ can report a truncated shadow with its reason instead of silently losing the tar
 
 from __future__ import annotations
 
+import inspect
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -106,10 +107,23 @@ class Pair:
     highlight_extents: Extents | None = field(compare=False, repr=False)
     shadow_extents: Extents = field(compare=False, repr=False)
 
+    # A frame builds one per target: the fields stored in ``__dict__`` at once (what the
+    # generated frozen ``__init__`` does one ``object.__setattr__`` at a time), as
+    # :class:`perception.shadows.segmentation.grid.Region` does; its parameters are the
+    # fields, in order (checked when the module loads).
+    def __init__(self, highlight: Region | None, shadow: Region, overlap: float, columns: tuple[int, ...],
+                 fov_flags: tuple[str, ...], highlight_extents: Extents | None, shadow_extents: Extents) -> None:
+        self.__dict__.update(highlight=highlight, shadow=shadow, overlap=overlap, columns=columns,
+                             fov_flags=fov_flags, highlight_extents=highlight_extents, shadow_extents=shadow_extents)
+
     @property
     def inside_fov(self) -> bool:
         """True when no edge cuts the pair (Algorithm 1's condition)."""
         return not self.fov_flags
+
+
+if list(inspect.signature(Pair.__init__).parameters)[1:] != [f.name for f in fields(Pair)]:
+    raise TypeError("Pair.__init__ must take exactly Pair's fields, in order")
 
 
 def _beam_highlights(
