@@ -8,7 +8,8 @@ of their grid cells, and full-resolution label images are built on demand.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+import inspect
+from dataclasses import MISSING, dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -86,6 +87,27 @@ class Segmentation:
     band_start_rows: NDArray[np.intp]
     band_stop_rows: NDArray[np.intp]
     method: str = "speckle"
+
+    # One per frame, with many fields: stored in ``__dict__`` at once (what the generated
+    # frozen ``__init__`` does one ``object.__setattr__`` at a time), as
+    # :class:`perception.shadows.segmentation.grid.Region` does; its parameters are the
+    # fields, in order (checked when the module loads).
+    def __init__(
+        self, levels: Levels, db_per_level: float, sample_m: float, row_step: int, grid: NDArray[np.float32],
+        grid_background: NDArray[np.float32], sigma: float, noise_level: float, shadow_offset: float,
+        highlight_offset: float, grid_highlight_labels: NDArray[np.int32], grid_shadow_labels: NDArray[np.int32],
+        highlight_rows: ColumnRows, shadow_rows: ColumnRows, highlights: tuple[Region, ...],
+        shadows: tuple[Region, ...], band_grid_rows: NDArray[np.bool_], band_start_rows: NDArray[np.intp],
+        band_stop_rows: NDArray[np.intp], method: str = "speckle",
+    ) -> None:
+        self.__dict__.update(
+            levels=levels, db_per_level=db_per_level, sample_m=sample_m, row_step=row_step, grid=grid,
+            grid_background=grid_background, sigma=sigma, noise_level=noise_level, shadow_offset=shadow_offset,
+            highlight_offset=highlight_offset, grid_highlight_labels=grid_highlight_labels,
+            grid_shadow_labels=grid_shadow_labels, highlight_rows=highlight_rows, shadow_rows=shadow_rows,
+            highlights=highlights, shadows=shadows, band_grid_rows=band_grid_rows, band_start_rows=band_start_rows,
+            band_stop_rows=band_stop_rows, method=method,
+        )
 
     @property
     def n_rows(self) -> int:
@@ -190,3 +212,9 @@ class Segmentation:
         if rows.size == 0:
             return None
         return int(rows[0]), int(rows[-1])
+
+
+if [(p.name, p.default) for p in inspect.signature(Segmentation).parameters.values()] != [
+    (f.name, inspect.Parameter.empty if f.default is MISSING else f.default) for f in fields(Segmentation)
+]:
+    raise TypeError("Segmentation.__init__ must take exactly its fields, in order, with their defaults")
