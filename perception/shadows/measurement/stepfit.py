@@ -277,7 +277,7 @@ def fit_steps(
         Where the edges are expected, samples (the same in every profile); the search
         covers ``COARSE_REACH_SAMPLES`` either side of it.
     sign : float or ndarray, shape (n,)
-        Per profile: +1 bright before the edge (a fall); -1 a rise.
+        Per profile: +1 bright before the edge (a fall); -1 a rise (exactly +-1).
 
     Returns
     -------

@@ -266,13 +266,16 @@ def pair_regions(segmentation: Segmentation, *, config: PairingConfig | None = N
         shadow_extents = (first_box, last_box, last_box >= 0)
         # The beams holding the shadow, and its rows there, as lists (a region's box is a few
         # dozen beams).
-        at = [k for k, row in enumerate(last_box.tolist()) if row >= 0]
+        first_l, last_l = first_box.tolist(), last_box.tolist()
+        at = [k for k, row in enumerate(last_l) if row >= 0]
         if not at:
             continue
-        cols = [s.col_start + k for k in at]
-        first_l, last_l = first_box.tolist(), last_box.tolist()
-        first = [first_l[k] for k in at]
-        last = [last_l[k] for k in at]
+        if len(at) == len(last_l):  # every beam of the box (the usual case): the lists as they are
+            cols, first, last = list(range(s.col_start, s.col_start + len(at))), first_l, last_l
+        else:
+            cols = [s.col_start + k for k in at]
+            first = [first_l[k] for k in at]
+            last = [last_l[k] for k in at]
         runs = split_runs(cols, first, last, jump_rows=jump_rows, min_beams=cfg.min_run_beams)
         blocks: list[tuple[int, int, int]] = []
         for p0, p1 in runs:
