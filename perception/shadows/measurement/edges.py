@@ -306,10 +306,10 @@ def find_edges(segmentation: Segmentation, pairs: Sequence[Pair], cfg: MeasureCo
                  & (local <= np.minimum(sl + (d + 1 - half_level), band_stop + (2 - half_level))[None, :]))
     # The least over each beam's region of the run means: outside it +inf, then the plain
     # reduction (the same minimum of the same values, in half the time of ``where=``).
-    floor = np.minimum.reduce(np.where(in_region, run, np.inf), axis=0)
-    # (In place: neither is read again.)
-    deep = np.less(np.multiply(run, run, out=run), np.multiply(floor[None, :], b_lin, out=b_lin))
-    deep &= in_region
+    masked = np.where(in_region, run, np.inf)
+    floor = np.minimum.reduce(masked, axis=0)
+    # (In place: neither is read again. Outside the region inf^2 is below nothing: False there.)
+    deep = np.less(np.multiply(masked, masked, out=masked), np.multiply(floor[None, :], b_lin, out=b_lin))
     deep = deep.view(np.uint8)
     # Each beam's first and last deep row by argmax along contiguous memory (OpenCV turns
     # the rows into columns, as for the band's edges: far cheaper than along the first axis).
