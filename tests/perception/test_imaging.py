@@ -8,6 +8,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from perception import imaging
 
@@ -76,3 +78,16 @@ def test_box_sum_replicate_is_the_exact_integer_sum(rng: np.random.Generator) ->
         assert np.array_equal(imaging.box_sum_replicate(counts, width, 1), expected)
     with pytest.raises(TypeError, match="image must be uint16"):
         imaging.box_sum_replicate(counts.astype(np.uint8), 3, 1)
+
+
+@settings(max_examples=60, deadline=None)
+@given(m=st.integers(0, 40), n=st.integers(1, 300), seed=st.integers(0, 2**32 - 1))
+def test_column_cumsum_is_numpys_cumulative_sum_bit_for_bit(m: int, n: int, seed: int) -> None:
+    """The edges' column sums (OpenCV's integral, 128 beams a call) are numpy's additions in
+    numpy's order: the same bits, for any shape (more beams than one call takes included)."""
+    rng = np.random.default_rng(seed)
+    values = rng.exponential(1.0, (m, n)) * 10.0 ** rng.uniform(-6, 6, (m, n))
+    got = imaging.column_cumsum(values)
+    want = np.concatenate([np.zeros((1, n)), np.cumsum(values, axis=0)])
+    assert got.shape == (m + 1, n) and got.flags.c_contiguous
+    assert got.tobytes() == want.tobytes()
