@@ -212,7 +212,8 @@ class SimClock:
             finally:
                 self._lock.acquire()
                 self._polling = None
-                self._cond.notify_all()  # a remove() waiting for this pass
+                if poller not in self._pollers:  # removed meanwhile: its remove() waits for this pass
+                    self._cond.notify_all()
             if self._stopped:
                 raise ClockStopped("simulation clock stopped")
 

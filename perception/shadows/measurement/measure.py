@@ -27,11 +27,10 @@ many beams, and is not used for a height.
 from __future__ import annotations
 
 import functools
-import inspect
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import MISSING, dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,6 +39,7 @@ from perception.shadows.measurement.config import MeasureConfig
 from perception.shadows.measurement.edges import FrameEdges, find_edges
 from perception.shadows.pairing.pair import Pair
 from perception.shadows.segmentation.result import Segmentation
+from perception.stored_init import check_init_takes_fields
 
 __all__ = [
     "TRUNCATION_REASONS",
@@ -156,16 +156,7 @@ class ShadowMeasurement:
         return not self.truncated and math.isfinite(self.r_top_m) and math.isfinite(self.r_end_m)
 
 
-def _same_parameters_as_fields(cls: type) -> bool:
-    """Whether ``cls.__init__`` takes exactly the dataclass's fields, in order, with their defaults."""
-    params = list(inspect.signature(cls).parameters.values())
-    return [(p.name, repr(p.default)) for p in params] == [
-        (f.name, repr(inspect.Parameter.empty if f.default is MISSING else f.default)) for f in fields(cls)
-    ]
-
-
-if not _same_parameters_as_fields(ShadowMeasurement):
-    raise TypeError("ShadowMeasurement.__init__ must take exactly its fields, in order, with their defaults")
+check_init_takes_fields(ShadowMeasurement)
 
 
 def measure_pair(

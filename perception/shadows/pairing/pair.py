@@ -26,15 +26,15 @@ can report a truncated shadow with its reason instead of silently losing the tar
 
 from __future__ import annotations
 
-import inspect
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from perception.shadows.pairing.fov import BandEdges, band_flags, column_extents, edge_flags, fov_flags, touches_edge
 from perception.shadows.pairing.runs import JUMP_FRACTION, JUMP_MIN_M, MAX_BEAM_STEP, MIN_RUN_BEAMS, split_runs
 from perception.shadows.segmentation.segment import Extents, Region, Segmentation
+from perception.stored_init import check_init_takes_fields
 
 __all__ = [
     "JUMP_FRACTION",
@@ -122,8 +122,7 @@ class Pair:
         return not self.fov_flags
 
 
-if list(inspect.signature(Pair.__init__).parameters)[1:] != [f.name for f in fields(Pair)]:
-    raise TypeError("Pair.__init__ must take exactly Pair's fields, in order")
+check_init_takes_fields(Pair)
 
 
 def _beam_highlights(

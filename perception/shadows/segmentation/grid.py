@@ -7,13 +7,13 @@ Part of :mod:`perception.shadows.segmentation.segment` (which re-exports these n
 
 from __future__ import annotations
 
-import inspect
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from perception import imaging
+from perception.stored_init import check_init_takes_fields
 
 #: More outer contours than this (a speckled mask) switch to a labelling pass.
 MAX_CONTOURS = 200
@@ -69,8 +69,7 @@ class Region:
         return self.col_stop - self.col_start
 
 
-if list(inspect.signature(Region.__init__).parameters)[1:] != [f.name for f in fields(Region)]:
-    raise TypeError("Region.__init__ must take exactly Region's fields, in order")
+check_init_takes_fields(Region)
 
 
 def clean_mask(mask: NDArray[np.uint8], *, open_size: int, close_size: int) -> NDArray[np.uint8]:

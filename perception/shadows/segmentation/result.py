@@ -8,8 +8,7 @@ of their grid cells, and full-resolution label images are built on demand.
 from __future__ import annotations
 
 import functools
-import inspect
-from dataclasses import MISSING, dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,6 +16,7 @@ from numpy.typing import NDArray
 from perception import imaging
 from perception.shadows.segmentation.grid import ColumnRows, Extents, Region
 from perception.shadows.segmentation.levels import Levels, block_axes, power_table
+from perception.stored_init import check_init_takes_fields
 
 #: Label codes of :meth:`Segmentation.label_image` (kept equal to the simulator's where they overlap).
 LABEL_OTHER = 0
@@ -214,7 +214,4 @@ class Segmentation:
         return int(rows[0]), int(rows[-1])
 
 
-if [(p.name, p.default) for p in inspect.signature(Segmentation).parameters.values()] != [
-    (f.name, inspect.Parameter.empty if f.default is MISSING else f.default) for f in fields(Segmentation)
-]:
-    raise TypeError("Segmentation.__init__ must take exactly its fields, in order, with their defaults")
+check_init_takes_fields(Segmentation)
