@@ -12,7 +12,7 @@ import pytest
 from benchmarks.bench_dive import cpu_by_process, process_cpu, tree_pids
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(),
-                                reason="bench_dive reads each process's CPU time from Linux /proc; other systems have none")
+                                reason="bench_dive reads each process's CPU time from Linux /proc; others have none")
 
 
 def test_a_helper_of_the_dive_is_named_by_its_module_and_its_cpu_counted() -> None:
