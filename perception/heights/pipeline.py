@@ -74,7 +74,8 @@ class HeightPipeline:
         self._targets_cache: tuple[int, list[TargetHeight]] | None = None
         # per track: what its answer depends on, the frame count then, the answer
         self._solved: dict[int, tuple[tuple[object, ...], int, TargetHeight]] = {}  # (key, n, answer)
-        self._solver = TargetSolver(self.config, self._sample_m)
+        self._beam_rad: dict[int, float] = {}
+        self._solver = TargetSolver(self.config, self._sample_m, self._beam_rad)
 
     @property
     def n_frames(self) -> int:
@@ -122,6 +123,8 @@ class HeightPipeline:
         altitude, delta = self._altitude_info(frame, altitude_m, delta_h_m)
         r = frame.range_m
         self._sample_m[self._n_frames] = float(r[-1] - r[0]) / max(r.size - 1, 1)
+        beams = frame.beam_azimuth_rad
+        self._beam_rad[self._n_frames] = abs(float(beams[-1] - beams[0])) / max(beams.size - 1, 1)
         measurements = detect_shadows(
             frame.image,
             range_m=frame.range_m,

@@ -68,8 +68,8 @@ class TargetHeight:
         Why ``height_m`` is None.
     detections : tuple of Detection
     rounded : bool
-        True when the height is a rounded top's summit
-        (``HeightsConfig.rounded_summit``), not the sharp-edge solution.
+        True when the height is a rounded top's summit (``HeightsConfig.rounded_near_echo``
+        or ``rounded_summit``), not the sharp-edge solution.
     top_slope_db_per_m : float
         Mean over the used frames of the echo's slope just before the shadow start, dB/m
         (``HeightsConfig.rounded_targets``); NaN when not measured.
@@ -78,7 +78,10 @@ class TargetHeight:
         Eq. 2's geometry) or ``"near foot"`` (a tall, short target whose far top edge lies
         nearer in slant range than the seabed at its near foot: the shadow starts at the
         foot, and the height comes from the shadow's ends over the altitudes,
-        :mod:`perception.heights.near_foot`).
+        :mod:`perception.heights.near_foot`) or ``"rounded top"`` (the echo fades towards
+        the edge, a rounded top's grazing point: the height is the summit of the
+        half-ellipsoid that grazes the ray there and starts the echo where it starts,
+        ``HeightsConfig.rounded_near_echo``).
     frame_reasons : tuple of (int, str)
         Per frame that did not give a usable shadow of this target: the frame index and
         why (not detected there, or which edge cut the shadow).

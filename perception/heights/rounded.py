@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -109,3 +110,71 @@ def fit_rounded_top(grazing_height_m: ArrayLike, grazing_std_m: ArrayLike, tan2_
         curvature_per_m2=k,
         curvature_std_per_m2=float(math.sqrt(1.0 / dwd)),
     )
+
+
+#: Aspects ``a / c`` (half-length along the ray over height) searched by
+#: :func:`summit_from_near_echo`, and the points of each half-ellipse's front quarter (at
+#: the nearest point the range is stationary: 1.4 deg steps move it by well under 0.1 mm).
+_ASPECTS = np.geomspace(1e-3, 8.0, 160)
+_FRONT = np.linspace(0.0, 0.5 * math.pi, 65)
+_COS_FRONT, _SIN_FRONT = np.cos(_FRONT), np.sin(_FRONT)
+
+
+class NearEchoSummit(NamedTuple):
+    """:func:`summit_from_near_echo`'s half-ellipsoid: its height ``c`` (the summit) and
+    half-length ``a`` along the ray, m (NaN when not determined)."""
+
+    height_m: float
+    half_length_m: float
+
+
+def summit_from_near_echo(altitude_m: float, r_near_m: float, r_top_m: float, r_end_m: float) -> NearEchoSummit:
+    """The half-ellipsoid on a flat seabed that casts the shadow seen (its summit and length).
+
+    In the vertical plane of the beam (sonar at height ``H``, the seabed flat), the shadow
+    is cast by the ray to its end (depression ``theta``, ``sin(theta) = H / r_end``), which
+    grazes the target at the far top edge, at slant range ``r_top``: a rounded top's
+    grazing point, below its summit. Of the half-ellipses of height ``c`` and half-length
+    ``a`` resting on the seabed that the ray grazes there, the aspect ``a / c`` is fixed
+    by where the target's echo starts, ``r_near``: its point nearest the sonar. With the
+    grazing point at height ``z`` and ``t = tan(theta)``,
+
+        c = z sqrt(1 + (a/c)^2 t^2),  centre  x_T - z (a/c)^2 t  along the seabed,
+
+    and the nearest point's range falls from ``r_top`` (a vertical edge, ``a -> 0``) as
+    the aspect grows: it is searched over aspects from 0.001 to 8 whose front foot is
+    ahead of the sonar, and interpolated between the two that bracket ``r_near``.
+
+    The height is ``z`` (half-length 0) when the echo starts at the grazing point (no
+    target in front of it); NaN when the ranges give no grazing point above the seabed (``r_top`` not between
+    ``H`` and ``r_end``) or no aspect reaches back to ``r_near``.
+    """
+    none = NearEchoSummit(math.nan, math.nan)
+    h, near, top, end = (float(v) for v in (altitude_m, r_near_m, r_top_m, r_end_m))
+    if not all(math.isfinite(v) for v in (h, near, top, end)) or not 0.0 < h < top < end:
+        return none
+    sin_t = h / end
+    cos_t = math.sqrt(1.0 - sin_t * sin_t)
+    tan_t = sin_t / cos_t
+    x_top, z_top = top * cos_t, h - top * sin_t
+    if not z_top > 0.0:
+        return none
+    if near >= top:
+        return NearEchoSummit(z_top, 0.0)
+    rho = _ASPECTS
+    c = z_top * np.sqrt(1.0 + (rho * tan_t) ** 2)
+    a = rho * c
+    centre = x_top - z_top * rho * rho * tan_t
+    ahead = centre - a > 0.0
+    # Each aspect's nearest front point to the sonar at (0, h).
+    x = centre[:, None] - a[:, None] * _COS_FRONT[None, :]
+    z = c[:, None] * _SIN_FRONT[None, :]
+    nearest = np.sqrt(np.min(x * x + (z - h) ** 2, axis=1))
+    nearest = np.where(ahead, nearest, np.inf)
+    below = np.nonzero(nearest <= near)[0]
+    if below.size == 0 or below[0] == 0:
+        return none
+    k = int(below[0])
+    r0, r1 = float(nearest[k - 1]), float(nearest[k])
+    f = (r0 - near) / (r0 - r1) if r0 > r1 else 1.0
+    return NearEchoSummit(float(c[k - 1] + f * (c[k] - c[k - 1])), float(a[k - 1] + f * (a[k] - a[k - 1])))

@@ -30,11 +30,13 @@ from perception.heights.least_squares import HeightEstimate, ShadowObservation, 
 from perception.heights.models import altitude_groups
 from perception.heights.near_foot import EndFrame, StartCheck, check_start
 from perception.heights.results import TargetHeight
-from perception.heights.rounded import RoundedTopFit, fit_rounded_top, grazing_tan2
+from perception.heights.rounded import RoundedTopFit, fit_rounded_top, grazing_tan2, summit_from_near_echo
 from perception.tracking.tracker import Detection
 
 #: Recordings up to this many frames have a reason for every frame a target is missing from.
 EVERY_FRAME_UP_TO = 20
+#: ``TargetHeight.shadow_start`` of a rounded top whose summit came from its echo's start.
+ROUNDED_TOP = "rounded top"
 
 
 class TargetSolver:
@@ -46,11 +48,16 @@ class TargetSolver:
     sample_m : mapping of int to float
         Range sample spacing of each frame by frame index, m (read when solving; the
         pipeline adds frames to it).
+    beam_rad : mapping of int to float, optional
+        Mean beam spacing of each frame by frame index, rad (as ``sample_m``; without it
+        no rounded top's summit comes from its echo's start).
     """
 
-    def __init__(self, config: HeightsConfig, sample_m: Mapping[int, float]):
+    def __init__(self, config: HeightsConfig, sample_m: Mapping[int, float],
+                 beam_rad: Mapping[int, float] | None = None):
         self.config = config
         self._sample_m = sample_m
+        self._beam_rad = {} if beam_rad is None else beam_rad
 
     def solve(
         self,
@@ -134,6 +141,14 @@ class TargetSolver:
                     check = self._check_start(usable, altitudes, h_std)
                     if check is not None and check.use_ends:
                         height, std, start_label = check.fit.height_m, check.fit.height_std_m, check.label
+                if rounded_top and cfg.rounded_near_echo and altitudes is not None and not rounded \
+                        and start_label == "far top edge":
+                    summit = self._near_echo_summit(usable, altitudes)
+                    if summit > height:
+                        # The sharp-edge height is the grazing point's: a lower bound, and the
+                        # other reading of a fading echo; the gap joins the sigma.
+                        std = math.hypot(std, summit - height)
+                        height, rounded, start_label = summit, True, ROUNDED_TOP
         m = first.measurement
         if not all(math.isfinite(v) for v in position_m):
             position_m = (first.north_m, first.east_m)
@@ -215,6 +230,26 @@ class TargetSolver:
             t, e = m.r_top_m, m.r_end_m
             eq2.append((alt * (e - t) / e, alt * sigma_r * math.sqrt(t * t + e * e) / (e * e)))
         return check_start(frames, eq2)
+
+    def _near_echo_summit(self, usable: list[Detection], altitudes: NDArray[np.float64]) -> float:
+        """The half-ellipsoid's summit from the echo's start, the far top edge and the
+        shadow's end (:func:`summit_from_near_echo`), per altitude group on its mean ranges,
+        averaged over the groups that give one; NaN when none does, or when the body it
+        makes is longer along the ray than ``rounded_max_length_over_width`` times the
+        target's width across it (from the shadow's beams): no rounded body, but a short,
+        tall block whose front face's echo starts early."""
+        ranges = np.array([(d.measurement.highlight_range_m, d.measurement.r_top_m, d.measurement.r_end_m,
+                            d.measurement.shadow_width_beams * self._beam_rad.get(d.frame_index, math.nan))
+                           for d in usable])
+        summits = []
+        for g in altitude_groups(altitudes):
+            near, top, end, width_rad = np.mean(ranges[g], axis=0)
+            body = summit_from_near_echo(float(np.mean(altitudes[g])), near, top, end)
+            half_width = 0.5 * width_rad * top
+            if not body.half_length_m <= self.config.rounded_max_length_over_width * half_width:
+                return math.nan
+            summits.append(body.height_m)
+        return float(np.mean(summits)) if summits else math.nan
 
     @staticmethod
     def _altitudes(

@@ -62,6 +62,12 @@ def register(subparsers: Any) -> None:
         "--altitude", type=args_types.number(0.0, 1000.0, lo_open=True, unit="m"), metavar="M",
         help="first frame's altitude, m, where files lack it"
     )
+    parser.add_argument(
+        "--rounded-targets", action="store_true",
+        help="report a target whose echo fades towards its shadow (stone, rock, tyre) at the summit "
+             "of the half-ellipsoid its echo and shadow give (shadow_start \"rounded top\"), not at "
+             "its grazing point; a short, tall block seen corner-on can then read high"
+    )
     parser.add_argument("--json", metavar="OUT", help="write the JSON document to OUT ('-' = stdout)")
     parser.set_defaults(func=run)
 
@@ -246,17 +252,19 @@ def _write_json(out: str, document: dict[str, Any]) -> None:
 
 
 def compute(
-    paths: Sequence[str], *, delta_h_m: float | None = None, altitude_m: float | None = None
+    paths: Sequence[str], *, delta_h_m: float | None = None, altitude_m: float | None = None,
+    rounded_targets: bool = False,
 ) -> dict[str, Any]:
-    """Load, check and process the frames; returns the JSON document."""
-    from perception.heights.pipeline import HeightPipeline  # the filter and solvers: only when computing
+    """Load, check and process the frames; returns the JSON document (``rounded_targets``:
+    ``HeightsConfig.rounded_near_echo``)."""
+    from perception.heights.pipeline import HeightPipeline, HeightsConfig  # the solvers: only when computing
 
     frames = load_all(paths)
     check_one_scene([f.label for f in frames], [f.frame for f in frames],
                     seabed_tolerance_m=HEIGHTS_SEABED_TOLERANCE_M)
     altitudes, deltas = resolve_altitudes(frames, delta_h_m=delta_h_m, altitude_m=altitude_m)
     check_altitudes([f.label for f in frames], [f.frame for f in frames], altitudes)
-    pipeline = HeightPipeline()
+    pipeline = HeightPipeline(HeightsConfig(rounded_near_echo=rounded_targets))
     for frame, altitude, delta in zip(frames_of(frames), altitudes, deltas, strict=True):
         pipeline.add_frame(frame, altitude_m=altitude, delta_h_m=delta)
     reference = pipeline.shadows_reference_altitude() if not math.isfinite(altitudes[0]) else None
@@ -270,7 +278,8 @@ def compute(
 
 def run(args: argparse.Namespace) -> int:
     """Run the command; 0 on success (bad input raises and the CLI exits 2)."""
-    document = compute(args.files, delta_h_m=args.delta_h, altitude_m=args.altitude)
+    document = compute(args.files, delta_h_m=args.delta_h, altitude_m=args.altitude,
+                       rounded_targets=args.rounded_targets)
     table = format_table(document)
     if args.json == "-":
         print(table, file=sys.stderr)

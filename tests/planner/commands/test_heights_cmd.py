@@ -191,3 +191,30 @@ def test_frames_of_different_windows_samples_and_dtypes(
     assert code == 0, err
     by_azimuth = sorted(json.loads(out)["targets"], key=lambda t: t["azimuth_deg"])
     assert [t["height_m"] for t in by_azimuth] == pytest.approx([0.039, 0.047], abs=0.002)
+
+
+def test_rounded_targets_are_read_at_their_summit_when_asked(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A half-buried stone 6 cm high: its echo fades towards the shadow, which a grazing
+    # point below the summit casts.
+    world = World(seabed=Seabed(depth_m=0.85),
+                  targets=(TargetSpec("S", "stone", 1.2, 0.0, 0.12, 0.10, 0.06, material="rock"),))
+    renderer = SonarRenderer(world, SonarConfig(seed=3))
+    paths = []
+    for k, altitude in enumerate((0.5, 0.6)):
+        frame, _ = renderer.render(SonarPose(0.0, 0.0, 0.85 - altitude, tilt_rad=math.radians(25.0)), 10.0 + k)
+        paths.append(str(tmp_path / f"{k}.npz"))
+        save_frame(paths[-1], frame)
+    found = {}
+    for flag in ([], ["--rounded-targets"]):
+        out_path = tmp_path / f"out{len(flag)}.json"
+        code, _, err = _run([*paths, *flag, "--json", str(out_path)], capsys)
+        assert code == 0, err
+        (target,) = json.loads(out_path.read_text())["targets"]
+        found[bool(flag)] = target
+    assert found[False]["shadow_start"] == "far top edge"
+    assert found[True]["shadow_start"] == "rounded top"
+    assert found[False]["height_m"] < found[True]["height_m"]
+    assert abs(found[True]["height_m"] - 0.06) < abs(found[False]["height_m"] - 0.06)
+    assert found[True]["height_m"] == pytest.approx(0.06, abs=0.004)
