@@ -156,9 +156,10 @@ def _masks(frame: SonarFrame, seed: int) -> tuple[np.ndarray, np.ndarray]:
     MosaicConfig(resolution_m=0.02, beam_taper_power=2.0, fan_taper_power=0.0),
     MosaicConfig(beam_taper_power=0.0, fan_taper_power=0.7, min_grazing_rad=math.radians(20)),
 ])
-@pytest.mark.parametrize("block_cells", [projection.BLOCK_CELLS, 3000])
+@pytest.mark.parametrize("block_cells", [1 << 18, projection.BLOCK_CELLS, 3000])
 def test_projection_is_bit_for_bit_the_plain_computation(seabed, config, block_cells, monkeypatch):
-    # small blocks: the box is cut into many, each to the columns the fan can reach
+    # one block per footprint (as before bands), the bands of a few dozen rows, and small
+    # blocks: the box is cut into many, each to the columns the fan can reach
     monkeypatch.setattr(projection, "BLOCK_CELLS", block_cells)
     projection._axes.cache_clear()
     frames = _frames(seabed)
