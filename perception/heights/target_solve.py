@@ -234,8 +234,9 @@ class TargetSolver:
     def _near_echo_summit(self, usable: list[Detection], altitudes: NDArray[np.float64]) -> float:
         """The half-ellipsoid's summit from the echo's start, the far top edge and the
         shadow's end (:func:`summit_from_near_echo`), per altitude group on its mean ranges,
-        averaged over the groups that give one; NaN when none does, or when the body it
-        makes is longer along the ray than ``rounded_max_length_over_width`` times the
+        averaged over the groups. NaN when a group gives none (its ranges fit no
+        half-ellipsoid: the other groups' are not trusted alone either), or when the body a
+        group makes is longer along the ray than ``rounded_max_length_over_width`` times the
         target's width across it (from the shadow's beams): no rounded body, but a short,
         tall block whose front face's echo starts early."""
         ranges = np.array([(d.measurement.highlight_range_m, d.measurement.r_top_m, d.measurement.r_end_m,
