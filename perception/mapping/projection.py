@@ -235,7 +235,7 @@ def check_altitude(placement: SonarPlacement) -> None:
 #: MB), and each band is cut to its own rows' reach, so the cells outside the fan's wedge
 #: but inside its box are not worked out (a third of the box's cells in a survey). On
 #: the harbour-field-quarter dive this took the map process from 27.5-29.2 to 26.1-27.8
-#: CPU s (its frames replayed alone on a quiet core: 5.1-5.3 to 3.6-3.9 s over the first
+#: CPU s (its frames replayed alone on a quiet core: 4.5-5.3 to 3.6-4.0 s over the first
 #: 700 batches; one block per footprint before, up to some 200 000 cells), the
 #: projections bit for bit the same: every step is per cell.
 BLOCK_CELLS = 1 << 15
